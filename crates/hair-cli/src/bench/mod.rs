@@ -1,0 +1,31 @@
+//! `hair bench SUITE`: throughput of our layers beside a peer measured in the same run.
+
+mod dynamics;
+mod grid;
+mod ssv;
+
+/// Arguments of `hair bench`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    suite: Suite,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum Suite {
+    /// Node-steps per second of every integrator, 1 thread and all threads.
+    Dynamics(dynamics::Args),
+    /// Swept-sphere-volume kernels, mesh contacts and cylinder maps against parry3d.
+    Ssv(ssv::Args),
+    /// Localization-grid build and pair search against a parry3d BVH.
+    Grid(grid::Args),
+}
+
+/// Runs the chosen suite.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.suite {
+        Suite::Dynamics(a) => dynamics::run(a),
+        Suite::Ssv(a) => ssv::run(a),
+        Suite::Grid(a) => grid::run(a),
+    }
+}

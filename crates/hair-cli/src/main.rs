@@ -1,0 +1,49 @@
+//! The `hair` command: simulate, measure and chart.
+//!
+//! Every subcommand is a module with its own clap `Args` and a `run` function; `main` only
+//! dispatches. Charts (plotters) live here, never in the libraries.
+
+mod accuracy;
+mod bench;
+mod chart;
+mod hierarchy;
+mod stability;
+
+use clap::{Parser, Subcommand};
+
+/// Interactive, physically based hair: simulation, collision, level of detail.
+#[derive(Debug, Parser)]
+#[command(name = "hair", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Stability map of every integrator over stiffness x time step.
+    Stability(stability::Args),
+    /// Accuracy against cost of every integrator, and the elastica statics.
+    Accuracy(accuracy::Args),
+    /// Throughput benchmarks, each measured beside a peer in the same run.
+    Bench(bench::Args),
+    /// Build the strip / cluster / strand-group hierarchy and report its size.
+    Hierarchy(hierarchy::Args),
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Stability(args) => stability::run(args),
+        Command::Accuracy(args) => accuracy::run(args),
+        Command::Bench(args) => bench::run(args),
+        Command::Hierarchy(args) => hierarchy::run(args),
+    };
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

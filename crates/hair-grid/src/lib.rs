@@ -1,0 +1,1 @@
+//! hair-grid (being written).
