@@ -1,0 +1,57 @@
+//! Closest points between two segments: the minimum of a convex quadratic over the unit square,
+//! found from the infinite lines' solution and two clamped projections.
+
+use super::{Closest, clamp_to};
+use crate::{Point, Real};
+
+/// Closest points between the segments `p0`-`p1` and `q0`-`q1`.
+///
+/// The lines' solution is computed in f64 from cross products, so nearly parallel segments keep
+/// their accuracy; exactly parallel, zero-length and coincident segments take the clamped
+/// projections alone, which are exact for them.
+#[inline]
+pub fn segment_segment(p0: &Point, p1: &Point, q0: &Point, q1: &Point) -> Closest {
+    let (s, t) = segment_segment_params(p0, p1, q0, q1);
+    Closest::from_points(p0 + (p1 - p0) * s, q0 + (q1 - q0) * t)
+}
+
+/// Parameters `(s, t)` in `[0, 1]` of the closest points `p0 + s (p1 - p0)`, `q0 + t (q1 - q0)`.
+#[inline(always)]
+pub(crate) fn segment_segment_params(
+    p0: &Point,
+    p1: &Point,
+    q0: &Point,
+    q1: &Point,
+) -> (Real, Real) {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = d1.dot(&d1);
+    let e = d2.dot(&d2);
+    let b = d1.dot(&d2);
+    let c = d1.dot(&r);
+    let f = d2.dot(&r);
+    // s on the infinite lines = ((d1 x d2) . (d2 x r)) / |d1 x d2|^2, free of the cancellation
+    // in `a e - b^2`.
+    let (d1x, d1y, d1z) = (d1.x as f64, d1.y as f64, d1.z as f64);
+    let (d2x, d2y, d2z) = (d2.x as f64, d2.y as f64, d2.z as f64);
+    let (rx, ry, rz) = (r.x as f64, r.y as f64, r.z as f64);
+    let nx = d1y * d2z - d1z * d2y;
+    let ny = d1z * d2x - d1x * d2z;
+    let nz = d1x * d2y - d1y * d2x;
+    let mx = d2y * rz - d2z * ry;
+    let my = d2z * rx - d2x * rz;
+    let mz = d2x * ry - d2y * rx;
+    let denom = nx * nx + ny * ny + nz * nz;
+    let num = nx * mx + ny * my + nz * mz;
+    let s0 = if denom > 0.0 {
+        clamp_to((num / denom) as Real, 1.0)
+    } else {
+        0.0
+    };
+    let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
+    let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
+    let t = clamp_to((b * s0 + f) * inv_e, 1.0);
+    let s = clamp_to((b * t - c) * inv_a, 1.0);
+    (s, t)
+}
