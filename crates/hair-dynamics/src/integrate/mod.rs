@@ -1,0 +1,549 @@
+//! Time integration: five integrators behind one interface, run in parallel over skeletons.
+//!
+//! | integrator | method | where it fails |
+//! |---|---|---|
+//! | [`Integrator::ExplicitEuler`] | forward Euler on angles and angular velocities | stiff springs, any step above the spring's period |
+//! | [`Integrator::SymplecticEuler`] | velocity first, then angle | stiff springs, steps above `2 / omega` |
+//! | [`Integrator::Rk4`] | classic fourth order | stiff springs, steps above about `2.8 / omega` |
+//! | [`Integrator::ImplicitAngular`] | Ward & Lin Appendix A per angle, damping folded in | loads treated explicitly: gravity-dominated soft strands at large steps |
+//! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one dense solve per strand | none found in the stability sweep |
+
+mod implicit_coupled;
+
+use crate::environment::LocalEnv;
+use crate::state::RootState;
+use crate::strand::{self, RootDyn, Scratch, StrandParams};
+use crate::{DynamicsError, Environment, Point, Real, StrandState, Vector};
+use nalgebra::{RealField, Vector3};
+use std::cell::RefCell;
+
+pub use implicit_coupled::LinearSolver;
+
+/// Which integrator advances the angles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Integrator {
+    /// Forward Euler: angles and velocities from the state at the start of the step.
+    ExplicitEuler,
+    /// Semi-implicit (symplectic) Euler: velocity from the start state, angle from the new velocity.
+    SymplecticEuler,
+    /// Classic fourth-order Runge-Kutta.
+    Rk4,
+    /// Ward & Lin's per-angle implicit step (Appendix A) with damping folded in; loads explicit.
+    ImplicitAngular,
+    /// Linearly implicit Euler on every angle of a strand at once (dense solve per strand).
+    ImplicitCoupled,
+}
+
+impl Integrator {
+    /// Every integrator, in chart order.
+    pub const ALL: [Integrator; 5] = [
+        Integrator::ExplicitEuler,
+        Integrator::SymplecticEuler,
+        Integrator::Rk4,
+        Integrator::ImplicitAngular,
+        Integrator::ImplicitCoupled,
+    ];
+
+    /// A short stable name (`explicit_euler`, ...), used in JSON and on charts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::ExplicitEuler => "explicit_euler",
+            Integrator::SymplecticEuler => "symplectic_euler",
+            Integrator::Rk4 => "rk4",
+            Integrator::ImplicitAngular => "implicit_angular",
+            Integrator::ImplicitCoupled => "implicit_coupled",
+        }
+    }
+
+    /// Order of accuracy in the time step.
+    pub fn order(self) -> u32 {
+        match self {
+            Integrator::Rk4 => 4,
+            _ => 1,
+        }
+    }
+}
+
+/// Which load a joint's torque sees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TorqueModel {
+    /// Each segment bears only its own node's load (Kurihara et al., Ward & Lin).
+    Local,
+    /// Each joint bears the whole load distal to it: converges to the elastica.
+    Chain,
+}
+
+impl TorqueModel {
+    /// `"local"` or `"chain"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            TorqueModel::Local => "local",
+            TorqueModel::Chain => "chain",
+        }
+    }
+}
+
+/// Settings of one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepSettings {
+    /// Time step (s), positive and finite.
+    pub dt: Real,
+    /// Integrator.
+    pub integrator: Integrator,
+    /// Torque model.
+    pub torque: TorqueModel,
+    /// Linear solver of the coupled implicit step.
+    pub solver: LinearSolver,
+}
+
+impl Default for StepSettings {
+    fn default() -> Self {
+        Self {
+            dt: 1.0 / 60.0,
+            integrator: Integrator::ImplicitCoupled,
+            torque: TorqueModel::Chain,
+            solver: LinearSolver::Hand,
+        }
+    }
+}
+
+/// What a step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Skeletons integrated.
+    pub integrated: usize,
+    /// Skeletons skipped because they were dormant.
+    pub dormant: usize,
+    /// Bonds broken at the end of the step.
+    pub bonds_broken: usize,
+}
+
+/// Advances one strand by one step in the scalar type `T`. Returns the first non-finite node, if
+/// any, after restoring the strand's coordinates.
+#[expect(clippy::too_many_arguments, reason = "the kernel's inputs are all distinct slices")]
+pub(crate) fn step_strand<T: RealField + Copy>(
+    root: &mut RootDyn<T>,
+    q: &mut [T],
+    w: &mut [T],
+    length: &mut [T],
+    rest_length: &[T],
+    k_stretch: &[T],
+    p: &StrandParams<'_, T>,
+    env: &LocalEnv<'_, T>,
+    settings: &StepSettings,
+    sc: &mut Scratch<T>,
+) -> Option<usize> {
+    let n = length.len();
+    let m2 = 2 * (n - 1);
+    let h = T::from_f32(settings.dt).unwrap_or_else(T::zero);
+    let coupled = settings.integrator == Integrator::ImplicitCoupled;
+    sc.reserve(n, coupled);
+    sc.q0[..m2].copy_from_slice(q);
+    sc.w0[..m2].copy_from_slice(w);
+    sc.len0[..n].copy_from_slice(length);
+    let root0 = *root;
+    let model = settings.torque;
+
+    let eval = |root: &RootDyn<T>, q: &[T], w: &[T], length: &[T], jac: bool, sc: &mut Scratch<T>| {
+        strand::forward(root, q, w, length, sc);
+        strand::forces(root, p, length, env, sc);
+        strand::torques(root, p, q, w, length, model, jac, sc);
+    };
+
+    match settings.integrator {
+        Integrator::ExplicitEuler => {
+            eval(root, q, w, length, false, sc);
+            for c in 0..m2 {
+                let a = sc.tau[c] / sc.inertia[c];
+                q[c] += h * w[c];
+                w[c] += h * a;
+            }
+            if root.free {
+                root.position += root.velocity * h;
+                root.velocity += sc.root_acc * h;
+            }
+        }
+        Integrator::SymplecticEuler => {
+            eval(root, q, w, length, false, sc);
+            for c in 0..m2 {
+                w[c] += h * sc.tau[c] / sc.inertia[c];
+                q[c] += h * w[c];
+            }
+            symplectic_root(root, sc.root_acc, h);
+        }
+        Integrator::Rk4 => rk4(root, q, w, length, h, sc, &eval),
+        Integrator::ImplicitAngular => {
+            eval(root, q, w, length, false, sc);
+            for c in 0..m2 {
+                let i = c / 2 + 1;
+                let k = spring_of(root, p, i, c);
+                let g = p.damping[i];
+                // (I + h g + h^2 k) dw = h tau - h^2 k w   (docs/dynamics.md)
+                let dw = (h * sc.tau[c] - h * h * k * w[c]) / (sc.inertia[c] + h * g + h * h * k);
+                w[c] += dw;
+                q[c] += h * w[c];
+            }
+            symplectic_root(root, sc.root_acc, h);
+        }
+        Integrator::ImplicitCoupled => {
+            eval(root, q, w, length, true, sc);
+            implicit_coupled::solve_step(root, p, q, w, h, settings.solver, sc);
+            symplectic_root(root, sc.root_acc, h);
+        }
+    }
+
+    // Quasi-static stretch springs: each segment takes the length its tension asks for.
+    for i in 1..n {
+        if k_stretch[i] > T::zero() {
+            let tension = sc.tension[i].max(T::zero());
+            length[i] = rest_length[i] * (T::one() + tension / k_stretch[i]);
+        }
+    }
+
+    // A free strand may wrap its first joint past half a turn: fold it back to the same rotation.
+    if root.free && m2 >= 2 {
+        let (x, y) = (q[0], q[1]);
+        let a = (x * x + y * y).sqrt();
+        if a > T::pi() {
+            let f = (a - T::two_pi()) / a;
+            q[0] = x * f;
+            q[1] = y * f;
+        }
+    }
+
+    let bad = (0..m2)
+        .find(|&c| !(q[c].is_finite() && w[c].is_finite()))
+        .map(|c| c / 2 + 1)
+        .or_else(|| (0..n).find(|&i| !length[i].is_finite()))
+        .or_else(|| {
+            let ok = root.position.iter().chain(root.velocity.iter()).all(|c| c.is_finite());
+            (!ok).then_some(0)
+        });
+    if bad.is_some() {
+        q.copy_from_slice(&sc.q0[..m2]);
+        w.copy_from_slice(&sc.w0[..m2]);
+        length.copy_from_slice(&sc.len0[..n]);
+        *root = root0;
+    }
+    bad
+}
+
+fn symplectic_root<T: RealField + Copy>(root: &mut RootDyn<T>, acc: Vector3<T>, h: T) {
+    if root.free {
+        root.velocity += acc * h;
+        root.position += root.velocity * h;
+    }
+}
+
+#[inline]
+pub(crate) fn spring_of<T: RealField + Copy>(root: &RootDyn<T>, p: &StrandParams<'_, T>, i: usize, c: usize) -> T {
+    if root.free && i == 1 {
+        T::zero()
+    } else if c % 2 == 0 {
+        p.k_theta[i]
+    } else {
+        p.k_phi[i]
+    }
+}
+
+fn rk4<T: RealField + Copy, F>(
+    root: &mut RootDyn<T>,
+    q: &mut [T],
+    w: &mut [T],
+    length: &[T],
+    h: T,
+    sc: &mut Scratch<T>,
+    eval: &F,
+) where
+    F: Fn(&RootDyn<T>, &[T], &[T], &[T], bool, &mut Scratch<T>),
+{
+    let m2 = q.len();
+    let half = h / (T::one() + T::one());
+    let sixth = h / T::from_f64(6.0).unwrap_or_else(T::one);
+    let mut stage_q = std::mem::take(&mut sc.stage_q);
+    let mut stage_w = std::mem::take(&mut sc.stage_w);
+    let mut acc_q = std::mem::take(&mut sc.acc_q);
+    let mut acc_w = std::mem::take(&mut sc.acc_w);
+    stage_q[..m2].copy_from_slice(q);
+    stage_w[..m2].copy_from_slice(w);
+    acc_q[..m2].iter_mut().for_each(|x| *x = T::zero());
+    acc_w[..m2].iter_mut().for_each(|x| *x = T::zero());
+    let mut stage_root = *root;
+    let mut acc_rp = Vector3::zeros();
+    let mut acc_rv = Vector3::zeros();
+    let weights = [T::one(), T::one() + T::one(), T::one() + T::one(), T::one()];
+    let steps = [half, half, h, T::zero()];
+    for s in 0..4 {
+        eval(&stage_root, &stage_q[..m2], &stage_w[..m2], length, false, sc);
+        let wt = weights[s];
+        let next = steps[s];
+        for c in 0..m2 {
+            let dq = stage_w[c];
+            let dw = sc.tau[c] / sc.inertia[c];
+            acc_q[c] += wt * dq;
+            acc_w[c] += wt * dw;
+            stage_q[c] = q[c] + next * dq;
+            stage_w[c] = w[c] + next * dw;
+        }
+        if root.free {
+            let dp = stage_root.velocity;
+            let dv = sc.root_acc;
+            acc_rp += dp * wt;
+            acc_rv += dv * wt;
+            stage_root.position = root.position + dp * next;
+            stage_root.velocity = root.velocity + dv * next;
+        }
+    }
+    for c in 0..m2 {
+        q[c] += sixth * acc_q[c];
+        w[c] += sixth * acc_w[c];
+    }
+    if root.free {
+        root.position += acc_rp * sixth;
+        root.velocity += acc_rv * sixth;
+    }
+    sc.stage_q = stage_q;
+    sc.stage_w = stage_w;
+    sc.acc_q = acc_q;
+    sc.acc_w = acc_w;
+}
+
+thread_local! {
+    static SCRATCH: RefCell<(Scratch<Real>, Vec<Real>, Vec<Real>)> = RefCell::new(Default::default());
+}
+
+/// Mutable views of a contiguous run of skeletons.
+struct Run<'a> {
+    first: usize,
+    node_base: usize,
+    theta: &'a mut [Real],
+    phi: &'a mut [Real],
+    omega_theta: &'a mut [Real],
+    omega_phi: &'a mut [Real],
+    length: &'a mut [Real],
+    positions: &'a mut [Point],
+    velocities: &'a mut [Vector],
+    roots: &'a mut [RootState],
+}
+
+impl<'a> Run<'a> {
+    fn split(self, mid: usize, at_node: usize) -> (Run<'a>, Run<'a>) {
+        let k = at_node - self.node_base;
+        let (t0, t1) = self.theta.split_at_mut(k);
+        let (p0, p1) = self.phi.split_at_mut(k);
+        let (a0, a1) = self.omega_theta.split_at_mut(k);
+        let (b0, b1) = self.omega_phi.split_at_mut(k);
+        let (l0, l1) = self.length.split_at_mut(k);
+        let (x0, x1) = self.positions.split_at_mut(k);
+        let (v0, v1) = self.velocities.split_at_mut(k);
+        let (r0, r1) = self.roots.split_at_mut(mid - self.first);
+        (
+            Run {
+                first: self.first,
+                node_base: self.node_base,
+                theta: t0,
+                phi: p0,
+                omega_theta: a0,
+                omega_phi: b0,
+                length: l0,
+                positions: x0,
+                velocities: v0,
+                roots: r0,
+            },
+            Run {
+                first: mid,
+                node_base: at_node,
+                theta: t1,
+                phi: p1,
+                omega_theta: a1,
+                omega_phi: b1,
+                length: l1,
+                positions: x1,
+                velocities: v1,
+                roots: r1,
+            },
+        )
+    }
+}
+
+/// Read-only inputs shared by every worker.
+struct Shared<'a> {
+    state_offsets: &'a [u32],
+    counts: &'a [u32],
+    active: &'a [bool],
+    rest_theta: &'a [Real],
+    rest_phi: &'a [Real],
+    rest_length: &'a [Real],
+    mass: &'a [Real],
+    wetness: &'a [Real],
+    k_theta: &'a [Real],
+    k_phi: &'a [Real],
+    k_stretch: &'a [Real],
+    damping: &'a [Real],
+    force: &'a [Vector],
+    env: LocalEnv<'a, Real>,
+    settings: StepSettings,
+}
+
+/// Nodes per leaf of the parallel split: big enough to amortise the fork, small enough to balance.
+const GRAIN_NODES: usize = 4096;
+
+fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
+    let count = run.roots.len();
+    if count > 1 && run.theta.len() > GRAIN_NODES {
+        let mid = run.first + count / 2;
+        let at = sh.state_offsets[mid] as usize;
+        let (a, b) = run.split(mid, at);
+        let (ra, rb) = rayon::join(|| run_parallel(a, sh), || run_parallel(b, sh));
+        return ra.or(rb);
+    }
+    run_sequential(run, sh)
+}
+
+fn run_sequential(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
+    SCRATCH.with(|cell| {
+        let mut guard = cell.borrow_mut();
+        let (sc, q, w) = &mut *guard;
+        let mut first_bad = None;
+        for local in 0..run.roots.len() {
+            let s = run.first + local;
+            if !sh.active[s] {
+                continue;
+            }
+            let o = sh.state_offsets[s] as usize;
+            let n = sh.counts[s] as usize;
+            let lo = o - run.node_base;
+            let r = lo..lo + n;
+            let g = o..o + n;
+            let m2 = 2 * (n - 1);
+            if q.len() < m2 {
+                q.resize(m2, 0.0);
+                w.resize(m2, 0.0);
+            }
+            for i in 1..n {
+                q[2 * i - 2] = run.theta[lo + i];
+                q[2 * i - 1] = run.phi[lo + i];
+                w[2 * i - 2] = run.omega_theta[lo + i];
+                w[2 * i - 1] = run.omega_phi[lo + i];
+            }
+            let rs = &mut run.roots[local];
+            let mut root = RootDyn {
+                position: rs.position.coords,
+                rotation: rs.rotation,
+                velocity: rs.velocity,
+                free: rs.free,
+            };
+            let params = StrandParams {
+                rest_theta: &sh.rest_theta[g.clone()],
+                rest_phi: &sh.rest_phi[g.clone()],
+                mass: &sh.mass[g.clone()],
+                wetness: &sh.wetness[g.clone()],
+                k_theta: &sh.k_theta[g.clone()],
+                k_phi: &sh.k_phi[g.clone()],
+                damping: &sh.damping[g.clone()],
+                external: &sh.force[g.clone()],
+            };
+            let bad = step_strand(
+                &mut root,
+                &mut q[..m2],
+                &mut w[..m2],
+                &mut run.length[r.clone()],
+                &sh.rest_length[g.clone()],
+                &sh.k_stretch[g.clone()],
+                &params,
+                &sh.env,
+                &sh.settings,
+                sc,
+            );
+            if let Some(node) = bad {
+                first_bad = first_bad.or(Some((s, node)));
+                continue;
+            }
+            for i in 1..n {
+                run.theta[lo + i] = q[2 * i - 2];
+                run.phi[lo + i] = q[2 * i - 1];
+                run.omega_theta[lo + i] = w[2 * i - 2];
+                run.omega_phi[lo + i] = w[2 * i - 1];
+            }
+            rs.position = Point::from(root.position);
+            rs.velocity = root.velocity;
+            // Positions and velocities at the end of the step, for collision and rendering.
+            strand::forward(&root, &q[..m2], &w[..m2], &run.length[r.clone()], sc);
+            for k in 0..n {
+                run.positions[lo + k] = Point::from(sc.pos[k]);
+                run.velocities[lo + k] = sc.vel[k];
+            }
+        }
+        first_bad
+    })
+}
+
+impl StrandState {
+    /// Advances every active skeleton by one step, in parallel over skeletons.
+    ///
+    /// Bond forces and [`StrandState::external_force_mut`] are applied; bonds stretched past their
+    /// break distance at the end of the step are removed. A skeleton that goes non-finite is
+    /// restored to its state before the step and reported as an error (the others keep their
+    /// new state); results do not depend on the number of threads.
+    pub fn step(&mut self, env: &Environment, settings: &StepSettings) -> Result<StepReport, DynamicsError> {
+        if !(settings.dt.is_finite() && settings.dt > 0.0) {
+            return Err(DynamicsError::InvalidTimeStep {
+                dt: f64::from(settings.dt),
+            });
+        }
+        env.validate()?;
+        let mut force = std::mem::take(&mut self.force_scratch);
+        force.clear();
+        force.extend_from_slice(&self.external_force);
+        self.accumulate_bond_forces(&mut force);
+        let nodes = self.theta.len();
+        let skeletons = self.offsets.len();
+        let dormant = self.active.iter().filter(|a| !**a).count();
+        let bad = {
+            let sh = Shared {
+                state_offsets: &self.offsets,
+                counts: &self.counts,
+                active: &self.active,
+                rest_theta: &self.rest_theta,
+                rest_phi: &self.rest_phi,
+                rest_length: &self.rest_length,
+                mass: &self.mass,
+                wetness: &self.wetness,
+                k_theta: &self.k_theta,
+                k_phi: &self.k_phi,
+                k_stretch: &self.k_stretch,
+                damping: &self.damping,
+                force: &force,
+                env: env.local(),
+                settings: *settings,
+            };
+            let run = Run {
+                first: 0,
+                node_base: 0,
+                theta: &mut self.theta,
+                phi: &mut self.phi,
+                omega_theta: &mut self.omega_theta,
+                omega_phi: &mut self.omega_phi,
+                length: &mut self.length,
+                positions: &mut self.positions,
+                velocities: &mut self.velocities,
+                roots: &mut self.roots,
+            };
+            if skeletons == 0 { None } else { run_parallel(run, &sh) }
+        };
+        self.force_scratch = force;
+        let step = self.steps;
+        self.steps += 1;
+        debug_assert_eq!(nodes, self.theta.len());
+        if let Some((skeleton, node)) = bad {
+            return Err(DynamicsError::NonFiniteState { step, skeleton, node });
+        }
+        let bonds_broken = self.break_stretched_bonds();
+        Ok(StepReport {
+            integrated: skeletons - dormant,
+            dormant,
+            bonds_broken,
+        })
+    }
+}

@@ -1,0 +1,194 @@
+//! Collision response on the angular model: position corrections and velocity constraints on
+//! nodes, mapped back to angles from root to tip with segment lengths kept.
+//!
+//! Ward & Lin §5.4 move a penetrating section out along the normal and remove its normal
+//! velocity; Kurihara et al. §3.2 constrain the velocity with friction. In angle coordinates a
+//! node cannot move alone: each segment is re-aimed at its corrected target in turn.
+
+use crate::bend::{bend_between, Bend};
+use crate::{DynamicsError, Point, Real, StrandState, Vector};
+use nalgebra::Matrix3;
+
+/// Move a node by `delta` (m, head frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeCorrection {
+    /// Global node index.
+    pub node: u32,
+    /// Displacement wanted.
+    pub delta: Vector,
+}
+
+/// Remove the velocity of a node into a surface and apply friction along it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VelocityConstraint {
+    /// Global node index.
+    pub node: u32,
+    /// Unit surface normal, pointing away from the obstacle.
+    pub normal: Vector,
+    /// Coulomb friction coefficient in [0, 1].
+    pub friction: Real,
+}
+
+/// Re-aims every segment of a strand at `targets` in turn, keeping `length`, and writes the angles.
+pub(crate) fn fit_angles(
+    frame: &Matrix3<Real>,
+    root: Point,
+    targets: &[Point],
+    length: &[Real],
+    theta: &mut [Real],
+    phi: &mut [Real],
+) {
+    let mut rot = *frame;
+    let mut prev = root;
+    for i in 1..targets.len() {
+        let d = targets[i] - prev;
+        let norm = d.norm();
+        let (x, y) = if norm > 0.0 && norm.is_finite() {
+            bend_between(&(rot.transpose() * (d / norm)))
+        } else {
+            (theta[i], phi[i])
+        };
+        theta[i] = x;
+        phi[i] = y;
+        rot *= Bend::new(x, y).rotation;
+        prev += rot.column(2) * length[i];
+    }
+}
+
+impl StrandState {
+    /// Moves nodes by the given displacements and refits the angles of every skeleton touched,
+    /// root to tip, keeping segment lengths. Roots of attached skeletons do not move.
+    pub fn apply_corrections(&mut self, corrections: &[NodeCorrection]) -> Result<(), DynamicsError> {
+        let count = self.theta.len();
+        for c in corrections {
+            if c.node as usize >= count {
+                return Err(DynamicsError::UnknownNode {
+                    node: c.node as usize,
+                    count,
+                });
+            }
+            crate::error::finite_vec("correction.delta", &c.delta)?;
+        }
+        let mut targets = std::mem::take(&mut self.target_scratch);
+        targets.clear();
+        targets.extend_from_slice(&self.positions);
+        let mut touched = std::mem::take(&mut self.touched_scratch);
+        touched.clear();
+        for c in corrections {
+            targets[c.node as usize] += c.delta;
+            let s = self.skeleton_of(c.node as usize);
+            if touched.last() != Some(&s) {
+                touched.push(s);
+            }
+        }
+        touched.sort_unstable();
+        touched.dedup();
+        for &s in &touched {
+            let id = crate::SkeletonId(s);
+            let range = self.nodes(id);
+            let root = self.roots[s as usize];
+            if root.free {
+                // A free root follows its correction like any node.
+                let r = &mut self.roots[s as usize];
+                r.position = targets[range.start];
+            }
+            let root = self.roots[s as usize];
+            fit_angles(
+                &root.rotation,
+                root.position,
+                &targets[range.clone()],
+                &self.length[range.clone()],
+                &mut self.theta[range.clone()],
+                &mut self.phi[range.clone()],
+            );
+            self.refresh_positions(id);
+        }
+        self.target_scratch = targets;
+        self.touched_scratch = touched;
+        Ok(())
+    }
+
+    /// Applies velocity constraints and maps the node velocities back to angular velocities.
+    pub fn apply_velocity_constraints(&mut self, constraints: &[VelocityConstraint]) -> Result<(), DynamicsError> {
+        let count = self.theta.len();
+        for c in constraints {
+            if c.node as usize >= count {
+                return Err(DynamicsError::UnknownNode {
+                    node: c.node as usize,
+                    count,
+                });
+            }
+            crate::error::finite_vec("constraint.normal", &c.normal)?;
+            crate::error::non_negative("constraint.friction", c.friction)?;
+        }
+        let mut touched = std::mem::take(&mut self.touched_scratch);
+        touched.clear();
+        for c in constraints {
+            let i = c.node as usize;
+            let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
+            let v = self.velocities[i];
+            let vn = v.dot(&n);
+            if vn < 0.0 {
+                let mut vt = v - n * vn;
+                let speed = vt.norm();
+                if speed > 0.0 {
+                    vt *= (1.0 - c.friction.min(1.0) * (-vn) / speed).max(0.0);
+                }
+                self.velocities[i] = vt;
+            }
+            touched.push(self.skeleton_of(i));
+        }
+        touched.sort_unstable();
+        touched.dedup();
+        for &s in &touched {
+            self.velocities_to_angles(s as usize);
+        }
+        self.touched_scratch = touched;
+        Ok(())
+    }
+
+    /// Sets angular velocities from the stored node velocities, root to tip (least squares per
+    /// segment), then recomputes node velocities so they agree exactly with the angles.
+    fn velocities_to_angles(&mut self, s: usize) {
+        let range = self.nodes(crate::SkeletonId(s as u32));
+        let root = self.roots[s];
+        let mut rot = root.rotation;
+        let mut omega = Vector::zeros();
+        let o = range.start;
+        let mut v_prev = if root.free { self.velocities[o] } else { Vector::zeros() };
+        for i in o + 1..range.end {
+            let bend = Bend::new(self.theta[i], self.phi[i]);
+            let ax = rot * bend.axis_x;
+            let ay = rot * bend.axis_y;
+            rot *= bend.rotation;
+            let r = self.positions[i] - self.positions[i - 1];
+            // (Omega_prev + ax wx + ay wy) x r = v_i - v_prev, least squares in (wx, wy).
+            let b = self.velocities[i] - v_prev - omega.cross(&r);
+            let c1 = ax.cross(&r);
+            let c2 = ay.cross(&r);
+            let (a11, a12, a22) = (c1.dot(&c1), c1.dot(&c2), c2.dot(&c2));
+            let (b1, b2) = (c1.dot(&b), c2.dot(&b));
+            let det = a11 * a22 - a12 * a12;
+            let (wx, wy) = if det.abs() > 1e-30 {
+                ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det)
+            } else {
+                (self.omega_theta[i], self.omega_phi[i])
+            };
+            self.omega_theta[i] = wx;
+            self.omega_phi[i] = wy;
+            omega += ax * wx + ay * wy;
+            v_prev += omega.cross(&r);
+            self.velocities[i] = v_prev;
+        }
+    }
+
+    /// The skeleton that owns a node slot.
+    pub fn skeleton_of(&self, node: usize) -> u32 {
+        // Offsets increase with the skeleton index: binary search.
+        match self.offsets.binary_search(&(node as u32)) {
+            Ok(s) => s as u32,
+            Err(s) => (s - 1) as u32,
+        }
+    }
+}
+
