@@ -22,6 +22,7 @@ pub struct ReferenceStrand {
     k_theta: Vec<f64>,
     k_phi: Vec<f64>,
     damping: Vec<f64>,
+    rest_points: Vec<Vector3<f64>>,
     external: Vec<Vector3<f64>>,
 }
 
@@ -60,6 +61,7 @@ impl ReferenceStrand {
             k_theta: up(&state.k_theta[r.clone()]),
             k_phi: up(&state.k_phi[r.clone()]),
             damping: up(&state.damping[r.clone()]),
+            rest_points: state.rest_points[r.clone()].iter().map(|v| v.cast()).collect(),
             external: state.external_force[r].iter().map(|f| f.cast()).collect(),
         }
     }
@@ -75,6 +77,7 @@ impl ReferenceStrand {
             k_theta: &self.k_theta,
             k_phi: &self.k_phi,
             damping: &self.damping,
+            rest_points: &self.rest_points,
             external: &self.external,
         };
         step_strand(
@@ -92,10 +95,11 @@ impl ReferenceStrand {
         .is_none()
     }
 
-    /// Relaxes the strand to static equilibrium: coupled implicit steps of `dt` with the angular
-    /// velocities zeroed before each, which for large `dt` is a damped Newton iteration on the
-    /// torque balance. Stops when no angle moves more than `tol` (rad) or after `max_iters`;
-    /// returns the iterations used.
+    /// Relaxes the strand to static equilibrium by pseudo-transient continuation: coupled implicit
+    /// steps with the angular velocities zeroed before each. The step starts at `settings.dt`,
+    /// grows by half after every step that succeeds and shrinks fourfold after one that fails, so
+    /// it ends as Newton's method on the torque balance. Returns the iterations used when no
+    /// angle moved more than `tol` (rad), or `None` if that did not happen within `max_iters`.
     pub fn relax(
         &mut self,
         env: &Environment,
@@ -103,21 +107,26 @@ impl ReferenceStrand {
         max_iters: usize,
         tol: f64,
         scratch: &mut ReferenceScratch,
-    ) -> usize {
+    ) -> Option<usize> {
+        let mut s = *settings;
+        s.integrator = crate::Integrator::ImplicitCoupled;
+        let mut before = self.q.clone();
         for it in 0..max_iters {
             self.w.iter_mut().for_each(|x| *x = 0.0);
-            let before = self.q.clone();
-            if !self.step(env, settings, scratch) {
-                return it;
+            before.copy_from_slice(&self.q);
+            if !self.step(env, &s, scratch) {
+                s.dt *= 0.25;
+                continue;
             }
             let moved = self.q.iter().zip(&before).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
             if moved < tol {
                 self.w.iter_mut().for_each(|x| *x = 0.0);
-                return it + 1;
+                return Some(it + 1);
             }
+            s.dt = (s.dt * 1.5).min(1e3);
         }
         self.w.iter_mut().for_each(|x| *x = 0.0);
-        max_iters
+        None
     }
 
     /// Node positions (head frame).

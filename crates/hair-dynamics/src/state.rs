@@ -137,6 +137,7 @@ pub struct StrandState {
     pub(crate) k_stretch: Vec<Real>,
     pub(crate) damping: Vec<Real>,
     pub(crate) radius: Vec<Real>,
+    pub(crate) rest_points: Vec<Vector>,
     pub(crate) external_force: Vec<Vector>,
     pub(crate) positions: Vec<Point>,
     pub(crate) velocities: Vec<Vector>,
@@ -247,6 +248,7 @@ impl StrandState {
             self.k_stretch.push(mat.stretch_stiffness);
             self.damping.push(if i == 0 { 0.0 } else { damp });
             self.radius.push(mat.radius);
+            self.rest_points.push(desc.points[i].coords);
             self.external_force.push(Vector::zeros());
             self.positions.push(desc.points[i]);
             self.velocities.push(if free { velocity } else { Vector::zeros() });
@@ -402,6 +404,9 @@ impl StrandState {
         /// Radius of the swept volume at the node (m).
         radius, radius_mut, Real);
     node_field!(
+        /// Rest shape of the skeleton (m): fixes the inertia of each joint.
+        rest_points, rest_points_mut, Vector);
+    node_field!(
         /// Extra force on the node (N, head frame), added at every step until changed.
         external_force, external_force_mut, Vector);
 
@@ -428,6 +433,43 @@ impl StrandState {
             velocity: r.velocity,
             free: r.free,
         }
+    }
+
+    /// Energy of the model (J): kinetic energy with the model's inertia, spring energy, and the
+    /// potential of gravity in the head frame. Constant under exact, undamped, unforced motion of
+    /// a head at rest; the implicit integrators never increase it when damped.
+    pub fn model_energy(&self, env: &crate::Environment, torque: crate::TorqueModel) -> f64 {
+        let g = env.head.rotation.inverse() * (env.gravity - env.head.linear_acceleration);
+        let mut e = 0.0f64;
+        for s in 0..self.offsets.len() {
+            let r = self.nodes(SkeletonId(s as u32));
+            for i in r.clone() {
+                let m = f64::from(self.mass[i] + self.wetness[i]);
+                e -= m * f64::from(g.dot(&self.positions[i].coords));
+                if i == r.start {
+                    continue;
+                }
+                let dt = f64::from(self.theta[i] - self.rest_theta[i]);
+                let dp = f64::from(self.phi[i] - self.rest_phi[i]);
+                let spring = if self.roots[s].free && i == r.start + 1 { 0.0 } else { 1.0 };
+                e += 0.5 * spring * (f64::from(self.k_theta[i]) * dt * dt + f64::from(self.k_phi[i]) * dp * dp);
+                let c = self.rest_points[i - 1];
+                let inertia: f64 = match torque {
+                    crate::TorqueModel::Chain => (i..r.end)
+                        .map(|j| f64::from(self.mass[j] + self.wetness[j]) * f64::from((self.rest_points[j] - c).norm_squared()))
+                        .sum(),
+                    crate::TorqueModel::Local => m * f64::from((self.rest_points[i] - c).norm_squared()),
+                };
+                let floor = 1e-2 * m * f64::from(self.length[i]).powi(2);
+                let w2 = f64::from(self.omega_theta[i]).powi(2) + f64::from(self.omega_phi[i]).powi(2);
+                e += 0.5 * inertia.max(floor) * w2;
+            }
+            if self.roots[s].free {
+                let mtot: f64 = r.clone().map(|j| f64::from(self.mass[j] + self.wetness[j])).sum();
+                e += 0.5 * mtot * f64::from(self.roots[s].velocity.norm_squared());
+            }
+        }
+        e
     }
 
     /// Shortens a skeleton to its first `count` nodes (a cut). The tail's slots stay reserved.

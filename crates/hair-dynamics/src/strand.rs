@@ -19,6 +19,8 @@ pub(crate) struct StrandParams<'a, T> {
     pub k_theta: &'a [T],
     pub k_phi: &'a [T],
     pub damping: &'a [T],
+    /// Rest shape (any frame): fixes each coordinate's inertia, see [`torques`].
+    pub rest_points: &'a [Vector3<T>],
     /// Extra force per node (head frame), or empty.
     pub external: &'a [Vector3<T>],
 }
@@ -219,7 +221,7 @@ pub(crate) fn torques<T: RealField + Copy>(
     let mut t_vec = Vector3::zeros(); // torque of the distal load about the current node
     let mut s_m = T::zero();
     let mut s_mp = Vector3::zeros();
-    let mut s_mpp = Matrix3::zeros();
+    let mut s_mp2 = T::zero();
     let mut s_pf = Matrix3::zeros();
     let mut s_fp = T::zero();
     if jacobian {
@@ -235,35 +237,33 @@ pub(crate) fn torques<T: RealField + Copy>(
         let xi = sc.pos[i];
         let mi = p.mass[i] + p.wetness[i];
         let seg = xi - pivot;
-        let (torque, inertia_x, inertia_y, load);
+        // Inertia about the joint of the load it carries, measured on the rest shape so it does not
+        // depend on the configuration: the model is then Hamiltonian (docs/dynamics.md).
+        let rp = p.rest_points[i];
+        s_m += mi;
+        s_mp += rp * mi;
+        s_mp2 += rp.norm_squared() * mi;
+        let rc = p.rest_points[i - 1];
+        let inertia = match model {
+            TorqueModel::Chain => s_mp2 - two(rc.dot(&s_mp)) + rc.norm_squared() * s_m,
+            TorqueModel::Local => (rp - rc).norm_squared() * mi,
+        };
+        let (torque, load);
         match model {
             TorqueModel::Chain => {
                 s_f += fi;
                 t_vec += seg.cross(&s_f);
-                s_m += mi;
-                s_mp += xi * mi;
-                s_mpp += xi * xi.transpose() * mi;
                 torque = t_vec;
-                // sum m |a x (x - c)|^2 = |a|^2 sum m |r|^2 - a^T (sum m r r^T) a, r = x - c.
-                let sum_r2 = s_mpp.trace() - two(pivot.dot(&s_mp)) + pivot.norm_squared() * s_m;
-                let cov = s_mpp - s_mp * pivot.transpose() - pivot * s_mp.transpose()
-                    + pivot * pivot.transpose() * s_m;
-                let ax = sc.axes[c];
-                let ay = sc.axes[c + 1];
-                inertia_x = ax.norm_squared() * sum_r2 - ax.dot(&(cov * ax));
-                inertia_y = ay.norm_squared() * sum_r2 - ay.dot(&(cov * ay));
                 load = s_f;
             }
             TorqueModel::Local => {
                 torque = seg.cross(&fi);
-                inertia_x = sc.axes[c].cross(&seg).norm_squared() * mi;
-                inertia_y = sc.axes[c + 1].cross(&seg).norm_squared() * mi;
                 load = fi;
             }
         }
         let min_inertia = floor * mi * length[i] * length[i];
-        sc.inertia[c] = inertia_x.max(min_inertia);
-        sc.inertia[c + 1] = inertia_y.max(min_inertia);
+        sc.inertia[c] = inertia.max(min_inertia);
+        sc.inertia[c + 1] = sc.inertia[c];
         // A free strand's first joint has no spring: nothing holds it to a scalp.
         let spring = if root.free && i == 1 { T::zero() } else { T::one() };
         sc.tau[c] = sc.axes[c].dot(&torque) - spring * p.k_theta[i] * (q[c] - p.rest_theta[i]) - p.damping[i] * w[c];

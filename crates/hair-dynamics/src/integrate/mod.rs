@@ -381,6 +381,7 @@ struct Shared<'a> {
     k_phi: &'a [Real],
     k_stretch: &'a [Real],
     damping: &'a [Real],
+    rest_points: &'a [Vector],
     force: &'a [Vector],
     env: LocalEnv<'a, Real>,
     settings: StepSettings,
@@ -442,6 +443,7 @@ fn run_sequential(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
                 k_theta: &sh.k_theta[g.clone()],
                 k_phi: &sh.k_phi[g.clone()],
                 damping: &sh.damping[g.clone()],
+                rest_points: &sh.rest_points[g.clone()],
                 external: &sh.force[g.clone()],
             };
             let bad = step_strand(
@@ -514,6 +516,7 @@ impl StrandState {
                 k_phi: &self.k_phi,
                 k_stretch: &self.k_stretch,
                 damping: &self.damping,
+                rest_points: &self.rest_points,
                 force: &force,
                 env: env.local(),
                 settings: *settings,
