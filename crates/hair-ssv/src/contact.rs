@@ -150,9 +150,13 @@ impl Ssv {
         if reach < 0.0 || c.dist_sq > reach * reach {
             return None;
         }
-        Some(Contact::from_closest(&c, self.radius(), 0.0, || {
-            triangle_fallback(tri)
-        }))
+        Some(self.contact_from_triangle_closest(&c, tri))
+    }
+
+    /// The contact with a triangle from already computed closest points.
+    #[inline]
+    pub(crate) fn contact_from_triangle_closest(&self, c: &Closest, tri: &[Point; 3]) -> Contact {
+        Contact::from_closest(c, self.radius(), 0.0, || triangle_fallback(tri))
     }
 }
 

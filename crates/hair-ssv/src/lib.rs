@@ -16,19 +16,35 @@
 //! assert!((c.depth - 0.05).abs() < 1e-6);
 //! ```
 
+mod body;
+pub mod bvh;
 mod contact;
+mod cylinder_map;
 mod distance;
 mod error;
+pub mod fit;
 pub mod query;
+mod ray;
 mod shape;
+mod sphere_map;
+mod surface_map;
+#[doc(hidden)]
+pub mod test_meshes;
 
+pub use body::{Body, BodyPart, PartMap};
+pub use bvh::{Bvh, ContactBatch, MeshClosest, MeshContact};
 pub use contact::Contact;
+pub use cylinder_map::{CylinderMap, CylinderMapConfig};
 pub use distance::{
     distance_lss_lss, distance_lss_rss, distance_pss_lss, distance_pss_pss, distance_pss_rss,
     distance_rss_rss,
 };
 pub use error::SsvError;
+pub use fit::{fit_lss, fit_rss, fit_rss_triangles};
+pub use ray::RayHit;
 pub use shape::{AXIS_TOLERANCE, Lss, Pss, Rss, Ssv};
+pub use sphere_map::{SphereMap, SphereMapConfig};
+pub use surface_map::{MapFrame, MapSample, SurfaceMap};
 
 /// Scalar type of the crate.
 pub type Real = f32;

@@ -1,0 +1,446 @@
+//! A bounding volume hierarchy of RSS over a triangle mesh, built top-down, for the hair-object
+//! queries of Ward & Lin 2003 §5.4: the closest triangle to an SSV and every triangle in contact.
+
+use rayon::prelude::*;
+
+use crate::fit::fit_rss_iter;
+use crate::query::{Closest, point_rectangle, rectangle_rectangle, segment_rectangle};
+use crate::{Contact, Point, Real, Rss, Ssv, SsvError, Vector};
+
+/// Triangles per leaf.
+const LEAF_SIZE: usize = 4;
+
+/// A triangle that the mesh validation calls degenerate: `|ab x ac| <= DEGENERATE * max_edge^2`.
+pub const DEGENERATE: Real = 1e-7;
+
+#[derive(Clone, Debug)]
+pub(crate) struct Node {
+    /// Axis-aligned bounds, a cheap first rejection.
+    pub(crate) lo: Point,
+    pub(crate) hi: Point,
+    /// The node's bounding RSS.
+    rss: Rss,
+    /// Leaf: first triangle (in the BVH's order) and count (> 0). Inner: `count == 0`, the left
+    /// child is the next node and `first` is the right child.
+    pub(crate) first: u32,
+    pub(crate) count: u32,
+}
+
+/// The triangle of a mesh closest to a volume.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshClosest {
+    /// Index of the triangle in the input mesh.
+    pub triangle: u32,
+    /// Closest points: `on_a` on the volume's core, `on_b` on the triangle.
+    pub closest: Closest,
+    /// Signed distance: core distance minus the volume's radius.
+    pub distance: Real,
+}
+
+/// A contact between a volume (`a`) and a mesh triangle (`b`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshContact {
+    /// Index of the triangle in the input mesh.
+    pub triangle: u32,
+    /// The contact; see [`Ssv::contact_with_triangle`] for the normal's convention.
+    pub contact: Contact,
+}
+
+/// Contacts of many volumes, flattened: the contacts of volume `i` are
+/// `contacts[offsets[i]..offsets[i + 1]]`, each sorted by triangle index.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContactBatch {
+    /// `volumes + 1` offsets into `contacts`.
+    pub offsets: Vec<usize>,
+    /// All contacts, grouped by volume in input order.
+    pub contacts: Vec<MeshContact>,
+}
+
+impl ContactBatch {
+    /// The contacts of volume `i` (empty when out of range).
+    pub fn of(&self, i: usize) -> &[MeshContact] {
+        match (self.offsets.get(i), self.offsets.get(i + 1)) {
+            (Some(&a), Some(&b)) => &self.contacts[a..b],
+            _ => &[],
+        }
+    }
+}
+
+/// A BVH of RSS over an indexed triangle mesh.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    pub(crate) nodes: Vec<Node>,
+    /// Triangles in leaf order.
+    pub(crate) tris: Vec<[Point; 3]>,
+    /// Per triangle in leaf order: axis-aligned bounds.
+    tri_bounds: Vec<(Point, Point)>,
+    /// Per triangle in leaf order: index in the input mesh.
+    pub(crate) tri_ids: Vec<u32>,
+    /// Triangles in input order.
+    input: Vec<[Point; 3]>,
+}
+
+fn tri_bounds(t: &[Point; 3]) -> (Point, Point) {
+    (t[0].inf(&t[1]).inf(&t[2]), t[0].sup(&t[1]).sup(&t[2]))
+}
+
+/// Checks an indexed mesh and returns its triangles as vertex triples.
+pub fn validate_mesh(
+    vertices: &[Point],
+    triangles: &[[u32; 3]],
+) -> Result<Vec<[Point; 3]>, SsvError> {
+    if triangles.is_empty() {
+        return Err(SsvError::EmptyMesh);
+    }
+    if let Some(vertex) = vertices
+        .iter()
+        .position(|p| !p.coords.iter().all(|x| x.is_finite()))
+    {
+        return Err(SsvError::NonFiniteVertex { vertex });
+    }
+    let mut out = Vec::with_capacity(triangles.len());
+    for (triangle, idx) in triangles.iter().enumerate() {
+        let mut t = [Point::origin(); 3];
+        for (k, &index) in idx.iter().enumerate() {
+            t[k] = *vertices
+                .get(index as usize)
+                .ok_or(SsvError::IndexOutOfRange {
+                    triangle,
+                    index,
+                    vertex_count: vertices.len(),
+                })?;
+        }
+        let (ab, ac, bc) = (t[1] - t[0], t[2] - t[0], t[2] - t[1]);
+        let longest = ab
+            .norm_squared()
+            .max(ac.norm_squared())
+            .max(bc.norm_squared());
+        let twice_area = ab.cross(&ac).norm();
+        if longest <= 0.0 || twice_area <= DEGENERATE * longest {
+            return Err(SsvError::DegenerateTriangle {
+                triangle,
+                area: 0.5 * twice_area,
+            });
+        }
+        out.push(t);
+    }
+    Ok(out)
+}
+
+impl Bvh {
+    /// Builds the hierarchy over `triangles` (indices into `vertices`). Empty meshes, non-finite
+    /// vertices, out-of-range indices and degenerate triangles are errors.
+    pub fn new(vertices: &[Point], triangles: &[[u32; 3]]) -> Result<Self, SsvError> {
+        let input = validate_mesh(vertices, triangles)?;
+        let mut order: Vec<u32> = (0..input.len() as u32).collect();
+        let centroids: Vec<Point> = input
+            .iter()
+            .map(|t| Point::from((t[0].coords + t[1].coords + t[2].coords) / 3.0))
+            .collect();
+        let mut nodes = Vec::with_capacity(2 * input.len() / LEAF_SIZE + 1);
+        build(&input, &centroids, &mut order, 0, &mut nodes);
+        let tris: Vec<[Point; 3]> = order.iter().map(|&i| input[i as usize]).collect();
+        let tri_bounds = tris.iter().map(tri_bounds).collect();
+        Ok(Self {
+            nodes,
+            tris,
+            tri_bounds,
+            tri_ids: order,
+            input,
+        })
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.input.len()
+    }
+
+    /// Triangle `i` of the input mesh.
+    pub fn triangle(&self, i: usize) -> Option<&[Point; 3]> {
+        self.input.get(i)
+    }
+
+    /// All triangles in input order.
+    pub fn triangles(&self) -> &[[Point; 3]] {
+        &self.input
+    }
+
+    /// Number of nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The root's bounding RSS.
+    pub fn root_volume(&self) -> Rss {
+        self.nodes[0].rss
+    }
+
+    /// The triangle closest to `ssv`'s core, with its signed distance; `None` only for an
+    /// empty hierarchy (which [`Bvh::new`] never builds).
+    pub fn closest(&self, ssv: &Ssv) -> Option<MeshClosest> {
+        let mut best: Option<(u32, Closest)> = None;
+        let mut best_d2 = Real::INFINITY;
+        let mut stack = [0u32; 64];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let node = &self.nodes[stack[sp] as usize];
+            if node_lower_bound_sq(ssv, &node.rss) >= best_d2 {
+                continue;
+            }
+            if node.count > 0 {
+                let start = node.first as usize;
+                for k in start..start + node.count as usize {
+                    let c = ssv.closest_to_triangle(&self.tris[k]);
+                    if c.dist_sq < best_d2
+                        || (c.dist_sq == best_d2
+                            && best.is_some_and(|(id, _)| self.tri_ids[k] < id))
+                    {
+                        best_d2 = c.dist_sq;
+                        best = Some((self.tri_ids[k], c));
+                    }
+                }
+            } else {
+                let left = stack[sp] + 1;
+                let right = node.first;
+                let dl = node_lower_bound_sq(ssv, &self.nodes[left as usize].rss);
+                let dr = node_lower_bound_sq(ssv, &self.nodes[right as usize].rss);
+                // push the farther first so the nearer is visited first
+                let (far, near) = if dl <= dr {
+                    (right, left)
+                } else {
+                    (left, right)
+                };
+                if sp + 2 <= stack.len() {
+                    stack[sp] = far;
+                    stack[sp + 1] = near;
+                    sp += 2;
+                } else {
+                    // deeper than the fixed stack (pathological meshes): fall back to brute force
+                    return self.closest_brute(ssv);
+                }
+            }
+        }
+        best.map(|(triangle, closest)| MeshClosest {
+            triangle,
+            closest,
+            distance: closest.distance() - ssv.radius(),
+        })
+    }
+
+    fn closest_brute(&self, ssv: &Ssv) -> Option<MeshClosest> {
+        let mut best: Option<MeshClosest> = None;
+        for (i, t) in self.input.iter().enumerate() {
+            let c = ssv.closest_to_triangle(t);
+            if best.is_none_or(|b| c.dist_sq < b.closest.dist_sq) {
+                best = Some(MeshClosest {
+                    triangle: i as u32,
+                    closest: c,
+                    distance: c.distance() - ssv.radius(),
+                });
+            }
+        }
+        best
+    }
+
+    /// Appends to `out` a contact for every triangle whose signed distance to `ssv` is at most
+    /// `margin`, sorted by triangle index. Allocates only if `out` must grow.
+    pub fn contacts(&self, ssv: &Ssv, margin: Real, out: &mut Vec<MeshContact>) {
+        let start_len = out.len();
+        let (mut lo, mut hi) = ssv.aabb();
+        let m = Vector::repeat(margin.max(0.0));
+        lo -= m;
+        hi += m;
+        let reach = ssv.radius() + margin;
+        if reach < 0.0 {
+            return;
+        }
+        let reach2 = reach * reach;
+        let mut stack = [0u32; 64];
+        let mut sp = 1usize;
+        let mut overflow = false;
+        while sp > 0 {
+            sp -= 1;
+            let index = stack[sp];
+            let node = &self.nodes[index as usize];
+            if !aabb_overlap(&lo, &hi, &node.lo, &node.hi) {
+                continue;
+            }
+            let nr = reach + node.rss.radius;
+            if node_lower_bound_sq(ssv, &node.rss) > nr * nr {
+                continue;
+            }
+            if node.count > 0 {
+                let start = node.first as usize;
+                for k in start..start + node.count as usize {
+                    let (tlo, thi) = &self.tri_bounds[k];
+                    if !aabb_overlap(&lo, &hi, tlo, thi) {
+                        continue;
+                    }
+                    let c = ssv.closest_to_triangle(&self.tris[k]);
+                    if c.dist_sq <= reach2 {
+                        let contact = ssv.contact_from_triangle_closest(&c, &self.tris[k]);
+                        out.push(MeshContact {
+                            triangle: self.tri_ids[k],
+                            contact,
+                        });
+                    }
+                }
+            } else if sp + 2 <= stack.len() {
+                stack[sp] = node.first;
+                stack[sp + 1] = index + 1;
+                sp += 2;
+            } else {
+                overflow = true;
+                break;
+            }
+        }
+        if overflow {
+            out.truncate(start_len);
+            for (i, t) in self.input.iter().enumerate() {
+                if let Some(contact) = ssv.contact_with_triangle(t, margin) {
+                    out.push(MeshContact {
+                        triangle: i as u32,
+                        contact,
+                    });
+                }
+            }
+            return;
+        }
+        out[start_len..].sort_unstable_by_key(|c| c.triangle);
+    }
+
+    /// Contacts of every volume in `ssvs` (see [`Bvh::contacts`]), computed in parallel and
+    /// returned in input order.
+    pub fn contacts_batch(&self, ssvs: &[Ssv], margin: Real) -> ContactBatch {
+        let chunks: Vec<(Vec<usize>, Vec<MeshContact>)> = ssvs
+            .par_chunks(64)
+            .map(|chunk| {
+                let mut counts = Vec::with_capacity(chunk.len());
+                let mut out = Vec::new();
+                for s in chunk {
+                    let before = out.len();
+                    self.contacts(s, margin, &mut out);
+                    counts.push(out.len() - before);
+                }
+                (counts, out)
+            })
+            .collect();
+        let mut batch = ContactBatch {
+            offsets: Vec::with_capacity(ssvs.len() + 1),
+            contacts: Vec::new(),
+        };
+        batch.offsets.push(0);
+        for (counts, contacts) in chunks {
+            for c in counts {
+                let last = *batch.offsets.last().unwrap_or(&0);
+                batch.offsets.push(last + c);
+            }
+            batch.contacts.extend(contacts);
+        }
+        batch
+    }
+
+    /// The closest triangle to every volume in `ssvs`, in parallel, in input order.
+    pub fn closest_batch(&self, ssvs: &[Ssv]) -> Vec<Option<MeshClosest>> {
+        ssvs.par_iter()
+            .with_min_len(64)
+            .map(|s| self.closest(s))
+            .collect()
+    }
+}
+
+#[inline(always)]
+fn aabb_overlap(alo: &Point, ahi: &Point, blo: &Point, bhi: &Point) -> bool {
+    alo.x <= bhi.x
+        && blo.x <= ahi.x
+        && alo.y <= bhi.y
+        && blo.y <= ahi.y
+        && alo.z <= bhi.z
+        && blo.z <= ahi.z
+}
+
+/// Squared distance from `ssv`'s core to the core rectangle of a node, minus nothing: a lower
+/// bound for the core-to-triangle distance once the node radius is taken off.
+#[inline]
+fn node_core_dist_sq(ssv: &Ssv, rss: &Rss) -> Real {
+    match ssv {
+        Ssv::Point(p) => point_rectangle(&p.center, rss).dist_sq,
+        Ssv::Line(l) => segment_rectangle(&l.a, &l.b, rss).dist_sq,
+        Ssv::Rect(r) => rectangle_rectangle(r, rss).dist_sq,
+    }
+}
+
+/// Lower bound of the squared core-to-triangle distance over a node's triangles.
+#[inline]
+fn node_lower_bound_sq(ssv: &Ssv, rss: &Rss) -> Real {
+    let d = node_core_dist_sq(ssv, rss).sqrt() - rss.radius;
+    if d > 0.0 { d * d } else { 0.0 }
+}
+
+/// Recursive top-down build over `order[..]` (a slice of the global order starting at `base`).
+fn build(
+    tris: &[[Point; 3]],
+    centroids: &[Point],
+    order: &mut [u32],
+    base: usize,
+    nodes: &mut Vec<Node>,
+) {
+    let pts = order.iter().flat_map(|&i| tris[i as usize].iter().copied());
+    let rss = fit_rss_iter(pts).unwrap_or(Rss::new(
+        Point::origin(),
+        [Vector::x(), Vector::y()],
+        [0.0, 0.0],
+        0.0,
+    ));
+    let (mut lo, mut hi) = (
+        Point::from(Vector::repeat(Real::INFINITY)),
+        Point::from(Vector::repeat(Real::NEG_INFINITY)),
+    );
+    for &i in order.iter() {
+        let (a, b) = tri_bounds(&tris[i as usize]);
+        lo = lo.inf(&a);
+        hi = hi.sup(&b);
+    }
+    let me = nodes.len();
+    nodes.push(Node {
+        lo,
+        hi,
+        rss,
+        first: base as u32,
+        count: order.len() as u32,
+    });
+    if order.len() <= LEAF_SIZE {
+        return;
+    }
+    // split along the longest RSS axis at the mean centroid; fall back to the median
+    let axis = if rss.extents[0] >= rss.extents[1] {
+        rss.axes[0]
+    } else {
+        rss.axes[1]
+    };
+    let key = |i: u32| centroids[i as usize].coords.dot(&axis);
+    let mean = order.iter().map(|&i| key(i)).sum::<Real>() / order.len() as Real;
+    let mut mid = partition(order, |i| key(i) < mean);
+    if mid == 0 || mid == order.len() {
+        mid = order.len() / 2;
+        order.select_nth_unstable_by(mid, |&a, &b| key(a).total_cmp(&key(b)));
+    }
+    let (left, right) = order.split_at_mut(mid);
+    build(tris, centroids, left, base, nodes);
+    let right_index = nodes.len() as u32;
+    build(tris, centroids, right, base + mid, nodes);
+    nodes[me].first = right_index;
+    nodes[me].count = 0;
+}
+
+fn partition(v: &mut [u32], pred: impl Fn(u32) -> bool) -> usize {
+    let mut k = 0;
+    for i in 0..v.len() {
+        if pred(v[i]) {
+            v.swap(i, k);
+            k += 1;
+        }
+    }
+    k
+}
