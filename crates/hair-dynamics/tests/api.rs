@@ -1,0 +1,265 @@
+//! Bad input, collision response, bonds, free roots, head motion and thread-count determinism.
+
+mod support;
+
+use hair_dynamics::*;
+use nalgebra::Rotation3;
+use support::*;
+
+#[test]
+fn bad_input_gives_typed_errors() {
+    let mut state = StrandState::new();
+    let frame = Rotation3::identity();
+    let attached = Root::Attached {
+        position: Point::origin(),
+        frame,
+    };
+    let err = state
+        .add_skeleton(&SkeletonDesc {
+            root: attached,
+            points: vec![Point::origin()],
+            material: Material::default(),
+        })
+        .unwrap_err();
+    assert!(matches!(err, DynamicsError::TooFewPoints { count: 1, .. }));
+    let err = state
+        .add_skeleton(&SkeletonDesc {
+            root: attached,
+            points: vec![Point::origin(), Point::origin()],
+            material: Material::default(),
+        })
+        .unwrap_err();
+    assert!(matches!(err, DynamicsError::DegenerateSegment { segment: 1, .. }), "{err}");
+    let err = state
+        .add_skeleton(&SkeletonDesc {
+            root: attached,
+            points: vec![Point::origin(), Point::new(0.0, f32::NAN, 0.0)],
+            material: Material::default(),
+        })
+        .unwrap_err();
+    assert!(matches!(err, DynamicsError::InvalidNode { node: 1, field: "point", .. }), "{err}");
+    let err = state
+        .add_skeleton(&SkeletonDesc {
+            root: attached,
+            points: vec![Point::origin(), Point::new(0.0, 0.0, 0.1)],
+            material: Material {
+                damping: -1.0,
+                ..Material::default()
+            },
+        })
+        .unwrap_err();
+    assert!(err.to_string().contains("material.damping"), "{err}");
+
+    let (mut state, _) = one_strand(Style::Straight, 5, 0.1, frame, Material::default());
+    for dt in [0.0, -0.01, f32::NAN, f32::INFINITY] {
+        let err = state.step(&Environment::default(), &settings(dt, Integrator::ImplicitCoupled, TorqueModel::Chain)).unwrap_err();
+        assert!(matches!(err, DynamicsError::InvalidTimeStep { .. }), "{err}");
+    }
+    let env = Environment {
+        gravity: Vector::new(0.0, f32::NAN, 0.0),
+        ..Environment::default()
+    };
+    let err = state.step(&env, &StepSettings::default()).unwrap_err();
+    assert!(err.to_string().contains("gravity"), "{err}");
+    assert!(style_points(Point::origin(), &frame, &Style::Wavy { amplitude: 0.01, period: 0.0 }, 5, 0.1).is_err());
+}
+
+#[test]
+fn explicit_euler_blow_up_is_reported_and_the_strand_restored() {
+    let (mut state, _) = one_strand(Style::Straight, 20, 0.25, frame_along(Vector::x()), Material::default());
+    state.k_theta_mut().iter_mut().for_each(|k| *k = 1e6);
+    state.k_phi_mut().iter_mut().for_each(|k| *k = 1e6);
+    state.theta_mut()[3] = 0.5;
+    let s = settings(0.05, Integrator::ExplicitEuler, TorqueModel::Chain);
+    let mut failed = None;
+    for _ in 0..200 {
+        let before = state.theta().to_vec();
+        if let Err(e) = state.step(&Environment::default(), &s) {
+            assert_eq!(state.theta(), &before[..], "the failing strand must be restored");
+            failed = Some(e);
+            break;
+        }
+    }
+    let err = failed.expect("explicit Euler with k = 1e6 at 50 ms must blow up");
+    assert!(matches!(err, DynamicsError::NonFiniteState { skeleton: 0, .. }), "{err}");
+    assert!(state.theta().iter().all(|x| x.is_finite()));
+}
+
+#[test]
+fn corrections_move_nodes_and_keep_lengths() {
+    let (mut state, id) = one_strand(Style::Straight, 10, 0.2, frame_along(-Vector::y()), Material::default());
+    let r = state.nodes(id);
+    let tip = r.end - 1;
+    let delta = Vector::new(0.03, 0.0, 0.0);
+    let target = state.positions()[tip] + delta;
+    state.apply_corrections(&[NodeCorrection { node: tip as u32, delta }]).unwrap();
+    let p = state.positions();
+    for i in r.start + 1..r.end {
+        assert!(((p[i] - p[i - 1]).norm() - state.length()[i]).abs() < 1e-6);
+    }
+    // The last segment re-aims at the target: the tip moves toward it.
+    assert!((p[tip] - target).norm() < 0.03);
+    assert!(p[tip].x > 0.0);
+    assert_eq!(p[r.start], Point::origin(), "an attached root does not move");
+    assert!(state.apply_corrections(&[NodeCorrection { node: 999, delta }]).is_err());
+}
+
+#[test]
+fn velocity_constraints_remove_the_approach_and_apply_friction() {
+    let (mut state, id) = one_strand(Style::Straight, 6, 0.1, frame_along(Vector::x()), Material::default());
+    // Swing it down under gravity for a few steps, then forbid downward motion at the tip.
+    for _ in 0..10 {
+        state.step(&Environment::default(), &settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain)).unwrap();
+    }
+    // Rigid segments cannot honour a constraint on one node exactly unless its parent moves with
+    // it: the joint of the constrained node takes the least-squares share, which removes most of
+    // the approach next to the clamped root and some of it at the tip.
+    for (node, bound) in [(state.nodes(id).start + 1, 0.2), (state.nodes(id).end - 1, 0.9)] {
+        let v = state.velocities()[node];
+        assert!(v.y < 0.0);
+        state
+            .apply_velocity_constraints(&[VelocityConstraint { node: node as u32, normal: Vector::y(), friction: 0.0 }])
+            .unwrap();
+        let after = state.velocities()[node];
+        assert!(after.y.abs() <= bound * v.y.abs(), "node {node}: normal velocity {} from {}", after.y, v.y);
+    }
+}
+
+#[test]
+fn bonds_pull_and_break_at_their_distance() {
+    let mut state = StrandState::new();
+    for x in [0.0f32, 0.01] {
+        let frame = frame_along(-Vector::y());
+        let root = Point::new(x, 0.0, 0.0);
+        let points = style_points(root, &frame, &Style::Straight, 6, 0.1).unwrap();
+        state
+            .add_skeleton(&SkeletonDesc {
+                root: Root::Attached { position: root, frame },
+                points,
+                material: Material::default(),
+            })
+            .unwrap();
+    }
+    let a = state.nodes(SkeletonId(0)).end - 1;
+    let b = state.nodes(SkeletonId(1)).end - 1;
+    state
+        .add_bond(Bond {
+            a: a as u32,
+            b: b as u32,
+            rest: 0.0,
+            stiffness: 1.0,
+            break_distance: 0.05,
+        })
+        .unwrap();
+    let s = settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    let env = Environment::default();
+    for _ in 0..30 {
+        state.step(&env, &s).unwrap();
+    }
+    let gap = (state.positions()[a] - state.positions()[b]).norm();
+    assert!(gap < 0.01, "the bond pulls the tips together: {gap}");
+    assert_eq!(state.bonds().len(), 1);
+    // Push the tips apart hard: the bond must break once they pass 5 cm, not before.
+    state.external_force_mut()[a] = Vector::new(-5.0, 0.0, 0.0);
+    state.external_force_mut()[b] = Vector::new(5.0, 0.0, 0.0);
+    let mut broke = false;
+    for _ in 0..200 {
+        let report = state.step(&env, &s).unwrap();
+        let gap = (state.positions()[a] - state.positions()[b]).norm();
+        if report.bonds_broken == 1 {
+            assert!(gap > 0.05, "broke early at {gap}");
+            broke = true;
+            break;
+        }
+        assert!(gap <= 0.05, "still bonded at {gap}");
+    }
+    assert!(broke);
+    assert!(state.add_bond(Bond { a: 0, b: 10_000, rest: 0.0, stiffness: 1.0, break_distance: 1.0 }).is_err());
+}
+
+#[test]
+fn a_free_piece_falls_without_spinning() {
+    let mut state = StrandState::new();
+    let frame = frame_along(Vector::x());
+    let points = style_points(Point::origin(), &frame, &Style::Straight, 8, 0.1).unwrap();
+    let id = state
+        .add_skeleton(&SkeletonDesc {
+            root: Root::Free {
+                position: Point::origin(),
+                velocity: Vector::zeros(),
+                frame,
+            },
+            points,
+            material: Material::default(),
+        })
+        .unwrap();
+    let s = settings(1.0 / 100.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    for _ in 0..50 {
+        state.step(&Environment::default(), &s).unwrap();
+    }
+    // Free fall for 0.5 s (symplectic Euler on the root): y = -g t (t + dt) / 2.
+    let y = -9.81 * 0.5 * (0.5 + 0.01) / 2.0;
+    for i in state.nodes(id) {
+        assert!((state.positions()[i].y - y).abs() < 1e-4, "node {i}: {}", state.positions()[i]);
+    }
+}
+
+#[test]
+fn a_shaking_head_swings_the_hair() {
+    // A strand hanging from the side of the head, 10 cm off the vertical axis the head turns about.
+    let mut still = StrandState::new();
+    let frame = frame_along(-Vector::y());
+    let root = Point::new(0.1, 0.0, 0.0);
+    let points = style_points(root, &frame, &Style::Straight, 12, 0.25).unwrap();
+    let id = still
+        .add_skeleton(&SkeletonDesc { root: Root::Attached { position: root, frame }, points, material: Material::default() })
+        .unwrap();
+    let mut shaken = still.clone();
+    let s = settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    for step in 0..120 {
+        let t = step as f32 / 120.0;
+        let w = 4.0 * (6.0 * t).sin();
+        let head = HeadMotion {
+            angular_velocity: Vector::new(0.0, w, 0.0),
+            angular_acceleration: Vector::new(0.0, 24.0 * (6.0 * t).cos(), 0.0),
+            rotation: Rotation3::from_axis_angle(&Vector::y_axis(), -4.0 / 6.0 * ((6.0 * t).cos() - 1.0)),
+            ..HeadMotion::default()
+        };
+        still.step(&Environment::default(), &s).unwrap();
+        shaken.step(&Environment { head, ..Environment::default() }, &s).unwrap();
+    }
+    let tip = still.nodes(id).end - 1;
+    let d = (still.positions()[tip] - shaken.positions()[tip]).norm();
+    assert!(d > 0.01, "fictitious forces should swing the tip: {d}");
+}
+
+#[test]
+fn results_are_identical_for_any_thread_count() {
+    let build = || {
+        let mut state = StrandState::new();
+        for k in 0..64 {
+            let a = k as f32 * 0.1;
+            let root = Point::new(0.1 * a.cos(), 0.1, 0.1 * a.sin());
+            let frame = frame_along(Vector::new(a.cos(), 0.3, a.sin()));
+            let style = if k % 2 == 0 { Style::Curly { radius: 0.01, pitch: 0.03 } } else { Style::Straight };
+            let points = style_points(root, &frame, &style, 20, 0.25).unwrap();
+            state
+                .add_skeleton(&SkeletonDesc { root: Root::Attached { position: root, frame }, points, material: Material::default() })
+                .unwrap();
+        }
+        state
+    };
+    let env = Environment { wind: Wind { speed: 4.0, turbulence: 0.5, drag: 2e-3, ..Wind::default() }, ..Environment::default() };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut state = build();
+            for _ in 0..60 {
+                state.step(&env, &settings(1.0 / 60.0, Integrator::ImplicitCoupled, TorqueModel::Chain)).unwrap();
+            }
+            state.positions().iter().flat_map(|p| p.coords.iter().map(|c| c.to_bits())).collect::<Vec<u32>>()
+        })
+    };
+    assert_eq!(run(1), run(2));
+    assert_eq!(run(1), run(3));
+}
