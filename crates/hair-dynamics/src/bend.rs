@@ -32,7 +32,8 @@ impl<T: RealField + Copy> Bend<T> {
         // the closed forms cancel catastrophically.
         let (s, c, e) = if a2 < T::from_f64(1e-4).unwrap_or_else(T::zero) {
             let one = T::one();
-            let s = one - a2 / T::from_f64(6.0).unwrap_or(one) + a2 * a2 / T::from_f64(120.0).unwrap_or(one);
+            let s = one - a2 / T::from_f64(6.0).unwrap_or(one)
+                + a2 * a2 / T::from_f64(120.0).unwrap_or(one);
             let c = T::from_f64(0.5).unwrap_or(one) - a2 / T::from_f64(24.0).unwrap_or(one)
                 + a2 * a2 / T::from_f64(720.0).unwrap_or(one);
             let e = one / T::from_f64(6.0).unwrap_or(one) - a2 / T::from_f64(120.0).unwrap_or(one);
@@ -93,14 +94,23 @@ mod tests {
 
     #[test]
     fn bend_rotation_is_orthonormal_and_matches_inverse() {
-        for &(x, y) in &[(0.0, 0.0), (1e-4, -2e-4), (0.3, 0.1), (-1.2, 0.7), (2.5, -0.4)] {
+        for &(x, y) in &[
+            (0.0, 0.0),
+            (1e-4, -2e-4),
+            (0.3, 0.1),
+            (-1.2, 0.7),
+            (2.5, -0.4),
+        ] {
             let b = Bend::<f64>::new(x, y);
             let r = b.rotation;
             assert!((r.transpose() * r - Matrix3::identity()).norm() < 1e-12);
             assert!((r.determinant() - 1.0).abs() < 1e-12);
             let t = r.column(2).into_owned();
             let (bx, by) = bend_between(&t);
-            assert!((bx - x).abs() < 1e-9 && (by - y).abs() < 1e-9, "{x} {y} -> {bx} {by}");
+            assert!(
+                (bx - x).abs() < 1e-9 && (by - y).abs() < 1e-9,
+                "{x} {y} -> {bx} {by}"
+            );
         }
     }
 

@@ -66,8 +66,9 @@ impl StrandState {
     pub(crate) fn break_stretched_bonds(&mut self) -> usize {
         let before = self.bonds.len();
         let positions = &self.positions;
-        self.bonds
-            .retain(|b| (positions[b.b as usize] - positions[b.a as usize]).norm() <= b.break_distance);
+        self.bonds.retain(|b| {
+            (positions[b.b as usize] - positions[b.a as usize]).norm() <= b.break_distance
+        });
         before - self.bonds.len()
     }
 }

@@ -304,11 +304,7 @@ impl<T: nalgebra::RealField + Copy> LocalEnv<'_, T> {
     /// Air velocity relative to the head frame at head-frame point `p` (head-frame coordinates).
     pub fn air_velocity(&self, p: &Vector3<T>) -> Vector3<T> {
         let h = &self.env.head;
-        let pf = Vector::new(
-            to_f32(p.x),
-            to_f32(p.y),
-            to_f32(p.z),
-        );
+        let pf = Vector::new(to_f32(p.x), to_f32(p.y), to_f32(p.z));
         let pw = h.position + h.rotation * pf;
         let wind = self.env.wind.velocity(&pw, self.env.time);
         // Air velocity seen by an observer moving with the head: subtract the frame's velocity

@@ -77,7 +77,9 @@ pub enum DynamicsError {
         count: usize,
     },
     /// The state went non-finite during a step; the skeleton was restored to its previous state.
-    #[error("step {step}: skeleton {skeleton} went non-finite at node {node}; it was restored to its state before the step")]
+    #[error(
+        "step {step}: skeleton {skeleton} went non-finite at node {node}; it was restored to its state before the step"
+    )]
     NonFiniteState {
         /// The step counter at which it happened.
         step: u64,

@@ -48,14 +48,14 @@ mod state;
 mod strand;
 mod style;
 
-pub use bend::{bend_between, Bend};
+pub use bend::{Bend, bend_between};
 pub use bonds::Bond;
 pub use environment::{Environment, ForceField, HeadMotion, Wind};
 pub use error::DynamicsError;
 pub use integrate::{Integrator, LinearSolver, StepReport, StepSettings, TorqueModel};
 pub use response::{NodeCorrection, VelocityConstraint};
 pub use state::{Material, Root, SkeletonDesc, SkeletonId, StrandState};
-pub use style::{style_points, Style};
+pub use style::{Style, style_points};
 
 /// Scalar of the runtime state.
 pub type Real = f32;

@@ -1,7 +1,7 @@
 //! f64 references: one strand simulated in double precision with the same kernel, and the
 //! cantilever elastica under self-weight solved by shooting.
 
-use crate::integrate::{step_strand, StepSettings};
+use crate::integrate::{StepSettings, step_strand};
 use crate::strand::{self, RootDyn, Scratch, StrandParams};
 use crate::{Environment, SkeletonId, StrandState};
 use nalgebra::Vector3;
@@ -39,7 +39,10 @@ impl ReferenceStrand {
         let mut w = Vec::with_capacity(2 * n);
         for i in r.start + 1..r.end {
             q.extend([f64::from(state.theta[i]), f64::from(state.phi[i])]);
-            w.extend([f64::from(state.omega_theta[i]), f64::from(state.omega_phi[i])]);
+            w.extend([
+                f64::from(state.omega_theta[i]),
+                f64::from(state.omega_phi[i]),
+            ]);
         }
         let root = state.root_dyn(id.0 as usize);
         Self {
@@ -61,13 +64,21 @@ impl ReferenceStrand {
             k_theta: up(&state.k_theta[r.clone()]),
             k_phi: up(&state.k_phi[r.clone()]),
             damping: up(&state.damping[r.clone()]),
-            rest_points: state.rest_points[r.clone()].iter().map(|v| v.cast()).collect(),
+            rest_points: state.rest_points[r.clone()]
+                .iter()
+                .map(|v| v.cast())
+                .collect(),
             external: state.external_force[r].iter().map(|f| f.cast()).collect(),
         }
     }
 
     /// One step in f64. Returns `false` if the strand went non-finite (it is then restored).
-    pub fn step(&mut self, env: &Environment, settings: &StepSettings, scratch: &mut ReferenceScratch) -> bool {
+    pub fn step(
+        &mut self,
+        env: &Environment,
+        settings: &StepSettings,
+        scratch: &mut ReferenceScratch,
+    ) -> bool {
         let local = env.local::<f64>();
         let p = StrandParams {
             rest_theta: &self.rest_theta,
@@ -118,7 +129,12 @@ impl ReferenceStrand {
                 s.dt *= 0.25;
                 continue;
             }
-            let moved = self.q.iter().zip(&before).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let moved = self
+                .q
+                .iter()
+                .zip(&before)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             if moved < tol {
                 self.w.iter_mut().for_each(|x| *x = 0.0);
                 return Some(it + 1);
@@ -164,12 +180,26 @@ pub fn elastica_tip(alpha: f64) -> (f64, f64) {
         let steps = 2000;
         let h = 1.0 / steps as f64;
         // state: theta, theta', x, y
-        let f = |s: f64, y: [f64; 4]| -> [f64; 4] { [y[1], -alpha * (1.0 - s) * y[0].cos(), y[0].cos(), y[0].sin()] };
+        let f = |s: f64, y: [f64; 4]| -> [f64; 4] {
+            [
+                y[1],
+                -alpha * (1.0 - s) * y[0].cos(),
+                y[0].cos(),
+                y[0].sin(),
+            ]
+        };
         let mut y = [0.0, k0, 0.0, 0.0];
         for i in 0..steps {
             let s = i as f64 * h;
             let k1 = f(s, y);
-            let a = |k: [f64; 4], c: f64| [y[0] + c * k[0], y[1] + c * k[1], y[2] + c * k[2], y[3] + c * k[3]];
+            let a = |k: [f64; 4], c: f64| {
+                [
+                    y[0] + c * k[0],
+                    y[1] + c * k[1],
+                    y[2] + c * k[2],
+                    y[3] + c * k[3],
+                ]
+            };
             let k2 = f(s + h / 2.0, a(k1, h / 2.0));
             let k3 = f(s + h / 2.0, a(k2, h / 2.0));
             let k4 = f(s + h, a(k3, h));

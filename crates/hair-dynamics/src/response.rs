@@ -5,7 +5,7 @@
 //! velocity; Kurihara et al. §3.2 constrain the velocity with friction. In angle coordinates a
 //! node cannot move alone: each segment is re-aimed at its corrected target in turn.
 
-use crate::bend::{bend_between, Bend};
+use crate::bend::{Bend, bend_between};
 use crate::{DynamicsError, Point, Real, StrandState, Vector};
 use nalgebra::Matrix3;
 
@@ -58,7 +58,10 @@ pub(crate) fn fit_angles(
 impl StrandState {
     /// Moves nodes by the given displacements and refits the angles of every skeleton touched,
     /// root to tip, keeping segment lengths. Roots of attached skeletons do not move.
-    pub fn apply_corrections(&mut self, corrections: &[NodeCorrection]) -> Result<(), DynamicsError> {
+    pub fn apply_corrections(
+        &mut self,
+        corrections: &[NodeCorrection],
+    ) -> Result<(), DynamicsError> {
         let count = self.theta.len();
         for c in corrections {
             if c.node as usize >= count {
@@ -109,7 +112,10 @@ impl StrandState {
     }
 
     /// Applies velocity constraints and maps the node velocities back to angular velocities.
-    pub fn apply_velocity_constraints(&mut self, constraints: &[VelocityConstraint]) -> Result<(), DynamicsError> {
+    pub fn apply_velocity_constraints(
+        &mut self,
+        constraints: &[VelocityConstraint],
+    ) -> Result<(), DynamicsError> {
         let count = self.theta.len();
         for c in constraints {
             if c.node as usize >= count {
@@ -155,7 +161,11 @@ impl StrandState {
         let mut rot = root.rotation;
         let mut omega = Vector::zeros();
         let o = range.start;
-        let mut v_prev = if root.free { self.velocities[o] } else { Vector::zeros() };
+        let mut v_prev = if root.free {
+            self.velocities[o]
+        } else {
+            Vector::zeros()
+        };
         for i in o + 1..range.end {
             let bend = Bend::new(self.theta[i], self.phi[i]);
             let ax = rot * bend.axis_x;
@@ -191,4 +201,3 @@ impl StrandState {
         }
     }
 }
-

@@ -198,7 +198,12 @@ impl StrandState {
                 frame,
             } => (position, frame, velocity, true),
         };
-        for c in root_pos.coords.iter().chain(velocity.iter()).chain(frame.matrix().iter()) {
+        for c in root_pos
+            .coords
+            .iter()
+            .chain(velocity.iter())
+            .chain(frame.matrix().iter())
+        {
             finite("root", *c)?;
         }
         let mut lengths = Vec::with_capacity(n);
@@ -251,7 +256,8 @@ impl StrandState {
             self.rest_points.push(desc.points[i].coords);
             self.external_force.push(Vector::zeros());
             self.positions.push(desc.points[i]);
-            self.velocities.push(if free { velocity } else { Vector::zeros() });
+            self.velocities
+                .push(if free { velocity } else { Vector::zeros() });
             if i + 1 < n {
                 arc += lengths[i + 1];
             }
@@ -330,7 +336,12 @@ impl StrandState {
     }
 
     /// Moves an attached root (e.g. a scalp that deforms) or a free one.
-    pub fn set_root(&mut self, id: SkeletonId, position: Point, frame: Rotation3<Real>) -> Result<(), DynamicsError> {
+    pub fn set_root(
+        &mut self,
+        id: SkeletonId,
+        position: Point,
+        frame: Rotation3<Real>,
+    ) -> Result<(), DynamicsError> {
         self.check(id)?;
         for c in position.coords.iter().chain(frame.matrix().iter()) {
             finite("root", *c)?;
@@ -417,7 +428,12 @@ impl StrandState {
         let n = range.len();
         let mut sc = crate::strand::Scratch::<Real>::default();
         sc.reserve(n, false);
-        let (q, w) = interleave(&self.theta[range.clone()], &self.phi[range.clone()], &self.omega_theta[range.clone()], &self.omega_phi[range.clone()]);
+        let (q, w) = interleave(
+            &self.theta[range.clone()],
+            &self.phi[range.clone()],
+            &self.omega_theta[range.clone()],
+            &self.omega_phi[range.clone()],
+        );
         crate::strand::forward(&root, &q, &w, &self.length[range.clone()], &mut sc);
         for (k, i) in range.enumerate() {
             self.positions[i] = Point::from(sc.pos[k]);
@@ -451,21 +467,36 @@ impl StrandState {
                 }
                 let dt = f64::from(self.theta[i] - self.rest_theta[i]);
                 let dp = f64::from(self.phi[i] - self.rest_phi[i]);
-                let spring = if self.roots[s].free && i == r.start + 1 { 0.0 } else { 1.0 };
-                e += 0.5 * spring * (f64::from(self.k_theta[i]) * dt * dt + f64::from(self.k_phi[i]) * dp * dp);
+                let spring = if self.roots[s].free && i == r.start + 1 {
+                    0.0
+                } else {
+                    1.0
+                };
+                e += 0.5
+                    * spring
+                    * (f64::from(self.k_theta[i]) * dt * dt + f64::from(self.k_phi[i]) * dp * dp);
                 let c = self.rest_points[i - 1];
                 let inertia: f64 = match torque {
                     crate::TorqueModel::Chain => (i..r.end)
-                        .map(|j| f64::from(self.mass[j] + self.wetness[j]) * f64::from((self.rest_points[j] - c).norm_squared()))
+                        .map(|j| {
+                            f64::from(self.mass[j] + self.wetness[j])
+                                * f64::from((self.rest_points[j] - c).norm_squared())
+                        })
                         .sum(),
-                    crate::TorqueModel::Local => m * f64::from((self.rest_points[i] - c).norm_squared()),
+                    crate::TorqueModel::Local => {
+                        m * f64::from((self.rest_points[i] - c).norm_squared())
+                    }
                 };
                 let floor = 1e-2 * m * f64::from(self.length[i]).powi(2);
-                let w2 = f64::from(self.omega_theta[i]).powi(2) + f64::from(self.omega_phi[i]).powi(2);
+                let w2 =
+                    f64::from(self.omega_theta[i]).powi(2) + f64::from(self.omega_phi[i]).powi(2);
                 e += 0.5 * inertia.max(floor) * w2;
             }
             if self.roots[s].free {
-                let mtot: f64 = r.clone().map(|j| f64::from(self.mass[j] + self.wetness[j])).sum();
+                let mtot: f64 = r
+                    .clone()
+                    .map(|j| f64::from(self.mass[j] + self.wetness[j]))
+                    .sum();
                 e += 0.5 * mtot * f64::from(self.roots[s].velocity.norm_squared());
             }
         }
@@ -528,7 +559,10 @@ impl StrandState {
 }
 
 /// Bend angles of a polyline relative to a root frame, by parallel transport of the frame.
-pub(crate) fn angles_of_polyline(frame: &Matrix3<Real>, points: &[Point]) -> (Vec<Real>, Vec<Real>) {
+pub(crate) fn angles_of_polyline(
+    frame: &Matrix3<Real>,
+    points: &[Point],
+) -> (Vec<Real>, Vec<Real>) {
     let n = points.len();
     let mut theta = vec![0.0; n];
     let mut phi = vec![0.0; n];
@@ -549,7 +583,12 @@ pub(crate) fn angles_of_polyline(frame: &Matrix3<Real>, points: &[Point]) -> (Ve
 }
 
 /// Interleaves per-node angles into per-coordinate arrays (`theta_1, phi_1, theta_2, ...`).
-pub(crate) fn interleave(theta: &[Real], phi: &[Real], wt: &[Real], wp: &[Real]) -> (Vec<Real>, Vec<Real>) {
+pub(crate) fn interleave(
+    theta: &[Real],
+    phi: &[Real],
+    wt: &[Real],
+    wp: &[Real],
+) -> (Vec<Real>, Vec<Real>) {
     let n = theta.len();
     let mut q = Vec::with_capacity(2 * n);
     let mut w = Vec::with_capacity(2 * n);

@@ -4,9 +4,9 @@
 //! the hinge spring plus the moment of the external forces. The kernel is generic over the scalar
 //! so the f32 runtime and the f64 reference share one implementation.
 
+use crate::TorqueModel;
 use crate::bend::Bend;
 use crate::environment::LocalEnv;
-use crate::TorqueModel;
 use nalgebra::{Matrix3, RealField, Vector3};
 
 /// Read-only per-node parameters of one strand (slices of length `n`).
@@ -123,7 +123,11 @@ pub(crate) fn forward<T: RealField + Copy>(
     let mut rot = root.rotation;
     let mut omega = Vector3::zeros();
     sc.pos[0] = root.position;
-    sc.vel[0] = if root.free { root.velocity } else { Vector3::zeros() };
+    sc.vel[0] = if root.free {
+        root.velocity
+    } else {
+        Vector3::zeros()
+    };
     for i in 1..n {
         let c = 2 * (i - 1);
         let bend = Bend::new(q[c], q[c + 1]);
@@ -164,7 +168,9 @@ pub(crate) fn forces<T: RealField + Copy>(
         let v = sc.vel[i];
         let mut f = env.gravity * m;
         if env.has_frame_motion {
-            let fict = env.alpha.cross(&x) + env.omega.cross(&env.omega.cross(&x)) + env.omega.cross(&v) * two;
+            let fict = env.alpha.cross(&x)
+                + env.omega.cross(&env.omega.cross(&x))
+                + env.omega.cross(&v) * two;
             f -= fict * m;
         }
         if env.has_air {
@@ -172,7 +178,11 @@ pub(crate) fn forces<T: RealField + Copy>(
             let t = sc.tangent[i];
             let normal = u - t * u.dot(&t);
             // The root's half segment belongs to segment 1; each node carries its own segment.
-            let l = if i == 0 { length[1.min(n - 1)] } else { length[i] };
+            let l = if i == 0 {
+                length[1.min(n - 1)]
+            } else {
+                length[i]
+            };
             f += normal * (drag * l);
         }
         if has_fields {
@@ -202,7 +212,10 @@ pub(crate) fn forces<T: RealField + Copy>(
 ///
 /// With `jacobian`, also fills `sc.jac` with the derivative of the external torque with respect to
 /// every coordinate, holding the forces fixed (see `docs/dynamics.md`).
-#[expect(clippy::too_many_arguments, reason = "the kernel's inputs are all distinct slices")]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the kernel's inputs are all distinct slices"
+)]
 pub(crate) fn torques<T: RealField + Copy>(
     root: &RootDyn<T>,
     p: &StrandParams<'_, T>,
@@ -265,10 +278,17 @@ pub(crate) fn torques<T: RealField + Copy>(
         sc.inertia[c] = inertia.max(min_inertia);
         sc.inertia[c + 1] = sc.inertia[c];
         // A free strand's first joint has no spring: nothing holds it to a scalp.
-        let spring = if root.free && i == 1 { T::zero() } else { T::one() };
-        sc.tau[c] = sc.axes[c].dot(&torque) - spring * p.k_theta[i] * (q[c] - p.rest_theta[i]) - p.damping[i] * w[c];
-        sc.tau[c + 1] =
-            sc.axes[c + 1].dot(&torque) - spring * p.k_phi[i] * (q[c + 1] - p.rest_phi[i]) - p.damping[i] * w[c + 1];
+        let spring = if root.free && i == 1 {
+            T::zero()
+        } else {
+            T::one()
+        };
+        sc.tau[c] = sc.axes[c].dot(&torque)
+            - spring * p.k_theta[i] * (q[c] - p.rest_theta[i])
+            - p.damping[i] * w[c];
+        sc.tau[c + 1] = sc.axes[c + 1].dot(&torque)
+            - spring * p.k_phi[i] * (q[c + 1] - p.rest_phi[i])
+            - p.damping[i] * w[c + 1];
         sc.tension[i] = load.dot(&sc.tangent[i]);
         if jacobian {
             match model {
@@ -306,13 +326,19 @@ fn two<T: RealField + Copy>(x: T) -> T {
 /// with the suffix sums `P = sum x F^T`, `S = sum F`, `sigma = sum F . x` over the nodes k moves.
 /// For k proximal to l the whole of l's subtree turns rigidly, axis included:
 /// `J_lk = a_k . w_l`, `w_l = P_l^T a_l - (a_l . c_l) S_l - (sigma_l - S_l . c_l) a_l + a_l x T_l`.
-fn jacobian_of_load<T: RealField + Copy>(n: usize, m2: usize, model: TorqueModel, sc: &mut Scratch<T>) {
+fn jacobian_of_load<T: RealField + Copy>(
+    n: usize,
+    m2: usize,
+    model: TorqueModel,
+    sc: &mut Scratch<T>,
+) {
     for l in 0..m2 {
         let jl = l / 2 + 1;
         let al = sc.axes[l];
         let cl = sc.pos[jl - 1];
         let (pl, slf, sfp) = (sc.sum_pf[jl], sc.sum_f[jl], sc.sum_fp[jl]);
-        let wl = pl.transpose() * al - slf * al.dot(&cl) - al * (sfp - slf.dot(&cl)) + al.cross(&sc.torque_vec[jl]);
+        let wl = pl.transpose() * al - slf * al.dot(&cl) - al * (sfp - slf.dot(&cl))
+            + al.cross(&sc.torque_vec[jl]);
         let row = &mut sc.jac[l * m2..(l + 1) * m2];
         for (k, entry) in row.iter_mut().enumerate() {
             let jk = k / 2 + 1;
@@ -337,7 +363,12 @@ fn jacobian_of_load<T: RealField + Copy>(n: usize, m2: usize, model: TorqueModel
 }
 
 /// Writes the node positions of a strand from `q` and `length` only (no velocities).
-pub(crate) fn positions_only<T: RealField + Copy>(root: &RootDyn<T>, q: &[T], length: &[T], out: &mut [Vector3<T>]) {
+pub(crate) fn positions_only<T: RealField + Copy>(
+    root: &RootDyn<T>,
+    q: &[T],
+    length: &[T],
+    out: &mut [Vector3<T>],
+) {
     let mut rot = root.rotation;
     out[0] = root.position;
     for i in 1..length.len() {

@@ -40,7 +40,10 @@ pub fn style_points(
     length: Real,
 ) -> Result<Vec<Point>, DynamicsError> {
     if n < 2 {
-        return Err(DynamicsError::TooFewPoints { skeleton: 0, count: n });
+        return Err(DynamicsError::TooFewPoints {
+            skeleton: 0,
+            count: n,
+        });
     }
     non_negative("style.length", length)?;
     if length == 0.0 {
@@ -56,7 +59,13 @@ pub fn style_points(
             finite("style.amplitude", amplitude)?;
             positive("style.period", period)?;
             // Parameterised by height; resampled by arc length below.
-            Box::new(move |z| Vector::new(amplitude * (core::f32::consts::TAU * z / period).sin(), 0.0, z))
+            Box::new(move |z| {
+                Vector::new(
+                    amplitude * (core::f32::consts::TAU * z / period).sin(),
+                    0.0,
+                    z,
+                )
+            })
         }
         Style::Curly { radius, pitch } => {
             non_negative("style.radius", radius)?;
@@ -99,12 +108,18 @@ pub fn style_points(
         }
         let local = if j + 1 < dense.len() {
             let (a0, a1) = (arc[j], arc[j + 1]);
-            let t = if a1 > a0 { ((target - a0) / (a1 - a0)).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if a1 > a0 {
+                ((target - a0) / (a1 - a0)).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             dense[j] + (dense[j + 1] - dense[j]) * t
         } else {
             // The curve ran out (arc shorter than asked): continue straight along the last tangent.
             let last = dense[dense.len() - 1];
-            let dir = (last - dense[dense.len() - 2]).try_normalize(1e-12).unwrap_or_else(Vector::z);
+            let dir = (last - dense[dense.len() - 2])
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector::z);
             last + dir * (target - arc[arc.len() - 1])
         };
         out.push(root + frame * local);

@@ -29,7 +29,10 @@ fn bad_input_gives_typed_errors() {
             material: Material::default(),
         })
         .unwrap_err();
-    assert!(matches!(err, DynamicsError::DegenerateSegment { segment: 1, .. }), "{err}");
+    assert!(
+        matches!(err, DynamicsError::DegenerateSegment { segment: 1, .. }),
+        "{err}"
+    );
     let err = state
         .add_skeleton(&SkeletonDesc {
             root: attached,
@@ -37,7 +40,17 @@ fn bad_input_gives_typed_errors() {
             material: Material::default(),
         })
         .unwrap_err();
-    assert!(matches!(err, DynamicsError::InvalidNode { node: 1, field: "point", .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            DynamicsError::InvalidNode {
+                node: 1,
+                field: "point",
+                ..
+            }
+        ),
+        "{err}"
+    );
     let err = state
         .add_skeleton(&SkeletonDesc {
             root: attached,
@@ -52,8 +65,16 @@ fn bad_input_gives_typed_errors() {
 
     let (mut state, _) = one_strand(Style::Straight, 5, 0.1, frame, Material::default());
     for dt in [0.0, -0.01, f32::NAN, f32::INFINITY] {
-        let err = state.step(&Environment::default(), &settings(dt, Integrator::ImplicitCoupled, TorqueModel::Chain)).unwrap_err();
-        assert!(matches!(err, DynamicsError::InvalidTimeStep { .. }), "{err}");
+        let err = state
+            .step(
+                &Environment::default(),
+                &settings(dt, Integrator::ImplicitCoupled, TorqueModel::Chain),
+            )
+            .unwrap_err();
+        assert!(
+            matches!(err, DynamicsError::InvalidTimeStep { .. }),
+            "{err}"
+        );
     }
     let env = Environment {
         gravity: Vector::new(0.0, f32::NAN, 0.0),
@@ -61,12 +82,30 @@ fn bad_input_gives_typed_errors() {
     };
     let err = state.step(&env, &StepSettings::default()).unwrap_err();
     assert!(err.to_string().contains("gravity"), "{err}");
-    assert!(style_points(Point::origin(), &frame, &Style::Wavy { amplitude: 0.01, period: 0.0 }, 5, 0.1).is_err());
+    assert!(
+        style_points(
+            Point::origin(),
+            &frame,
+            &Style::Wavy {
+                amplitude: 0.01,
+                period: 0.0
+            },
+            5,
+            0.1
+        )
+        .is_err()
+    );
 }
 
 #[test]
 fn explicit_euler_blow_up_is_reported_and_the_strand_restored() {
-    let (mut state, _) = one_strand(Style::Straight, 20, 0.25, frame_along(Vector::x()), Material::default());
+    let (mut state, _) = one_strand(
+        Style::Straight,
+        20,
+        0.25,
+        frame_along(Vector::x()),
+        Material::default(),
+    );
     state.k_theta_mut().iter_mut().for_each(|k| *k = 1e6);
     state.k_phi_mut().iter_mut().for_each(|k| *k = 1e6);
     state.theta_mut()[3] = 0.5;
@@ -75,24 +114,42 @@ fn explicit_euler_blow_up_is_reported_and_the_strand_restored() {
     for _ in 0..200 {
         let before = state.theta().to_vec();
         if let Err(e) = state.step(&Environment::default(), &s) {
-            assert_eq!(state.theta(), &before[..], "the failing strand must be restored");
+            assert_eq!(
+                state.theta(),
+                &before[..],
+                "the failing strand must be restored"
+            );
             failed = Some(e);
             break;
         }
     }
     let err = failed.expect("explicit Euler with k = 1e6 at 50 ms must blow up");
-    assert!(matches!(err, DynamicsError::NonFiniteState { skeleton: 0, .. }), "{err}");
+    assert!(
+        matches!(err, DynamicsError::NonFiniteState { skeleton: 0, .. }),
+        "{err}"
+    );
     assert!(state.theta().iter().all(|x| x.is_finite()));
 }
 
 #[test]
 fn corrections_move_nodes_and_keep_lengths() {
-    let (mut state, id) = one_strand(Style::Straight, 10, 0.2, frame_along(-Vector::y()), Material::default());
+    let (mut state, id) = one_strand(
+        Style::Straight,
+        10,
+        0.2,
+        frame_along(-Vector::y()),
+        Material::default(),
+    );
     let r = state.nodes(id);
     let tip = r.end - 1;
     let delta = Vector::new(0.03, 0.0, 0.0);
     let target = state.positions()[tip] + delta;
-    state.apply_corrections(&[NodeCorrection { node: tip as u32, delta }]).unwrap();
+    state
+        .apply_corrections(&[NodeCorrection {
+            node: tip as u32,
+            delta,
+        }])
+        .unwrap();
     let p = state.positions();
     for i in r.start + 1..r.end {
         assert!(((p[i] - p[i - 1]).norm() - state.length()[i]).abs() < 1e-6);
@@ -100,28 +157,59 @@ fn corrections_move_nodes_and_keep_lengths() {
     // The last segment re-aims at the target: the tip moves toward it.
     assert!((p[tip] - target).norm() < 0.03);
     assert!(p[tip].x > 0.0);
-    assert_eq!(p[r.start], Point::origin(), "an attached root does not move");
-    assert!(state.apply_corrections(&[NodeCorrection { node: 999, delta }]).is_err());
+    assert_eq!(
+        p[r.start],
+        Point::origin(),
+        "an attached root does not move"
+    );
+    assert!(
+        state
+            .apply_corrections(&[NodeCorrection { node: 999, delta }])
+            .is_err()
+    );
 }
 
 #[test]
 fn velocity_constraints_remove_the_approach_and_apply_friction() {
-    let (mut state, id) = one_strand(Style::Straight, 6, 0.1, frame_along(Vector::x()), Material::default());
+    let (mut state, id) = one_strand(
+        Style::Straight,
+        6,
+        0.1,
+        frame_along(Vector::x()),
+        Material::default(),
+    );
     // Swing it down under gravity for a few steps, then forbid downward motion at the tip.
     for _ in 0..10 {
-        state.step(&Environment::default(), &settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain)).unwrap();
+        state
+            .step(
+                &Environment::default(),
+                &settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain),
+            )
+            .unwrap();
     }
     // Rigid segments cannot honour a constraint on one node exactly unless its parent moves with
     // it: the joint of the constrained node takes the least-squares share, which removes most of
     // the approach next to the clamped root and some of it at the tip.
-    for (node, bound) in [(state.nodes(id).start + 1, 0.2), (state.nodes(id).end - 1, 0.9)] {
+    for (node, bound) in [
+        (state.nodes(id).start + 1, 0.2),
+        (state.nodes(id).end - 1, 0.9),
+    ] {
         let v = state.velocities()[node];
         assert!(v.y < 0.0);
         state
-            .apply_velocity_constraints(&[VelocityConstraint { node: node as u32, normal: Vector::y(), friction: 0.0 }])
+            .apply_velocity_constraints(&[VelocityConstraint {
+                node: node as u32,
+                normal: Vector::y(),
+                friction: 0.0,
+            }])
             .unwrap();
         let after = state.velocities()[node];
-        assert!(after.y.abs() <= bound * v.y.abs(), "node {node}: normal velocity {} from {}", after.y, v.y);
+        assert!(
+            after.y.abs() <= bound * v.y.abs(),
+            "node {node}: normal velocity {} from {}",
+            after.y,
+            v.y
+        );
     }
 }
 
@@ -134,7 +222,10 @@ fn bonds_pull_and_break_at_their_distance() {
         let points = style_points(root, &frame, &Style::Straight, 6, 0.1).unwrap();
         state
             .add_skeleton(&SkeletonDesc {
-                root: Root::Attached { position: root, frame },
+                root: Root::Attached {
+                    position: root,
+                    frame,
+                },
                 points,
                 material: Material::default(),
             })
@@ -174,7 +265,17 @@ fn bonds_pull_and_break_at_their_distance() {
         assert!(gap <= 0.05, "still bonded at {gap}");
     }
     assert!(broke);
-    assert!(state.add_bond(Bond { a: 0, b: 10_000, rest: 0.0, stiffness: 1.0, break_distance: 1.0 }).is_err());
+    assert!(
+        state
+            .add_bond(Bond {
+                a: 0,
+                b: 10_000,
+                rest: 0.0,
+                stiffness: 1.0,
+                break_distance: 1.0
+            })
+            .is_err()
+    );
 }
 
 #[test]
@@ -200,7 +301,11 @@ fn a_free_piece_falls_without_spinning() {
     // Free fall for 0.5 s (symplectic Euler on the root): y = -g t (t + dt) / 2.
     let y = -9.81 * 0.5 * (0.5 + 0.01) / 2.0;
     for i in state.nodes(id) {
-        assert!((state.positions()[i].y - y).abs() < 1e-4, "node {i}: {}", state.positions()[i]);
+        assert!(
+            (state.positions()[i].y - y).abs() < 1e-4,
+            "node {i}: {}",
+            state.positions()[i]
+        );
     }
 }
 
@@ -212,7 +317,14 @@ fn a_shaking_head_swings_the_hair() {
     let root = Point::new(0.1, 0.0, 0.0);
     let points = style_points(root, &frame, &Style::Straight, 12, 0.25).unwrap();
     let id = still
-        .add_skeleton(&SkeletonDesc { root: Root::Attached { position: root, frame }, points, material: Material::default() })
+        .add_skeleton(&SkeletonDesc {
+            root: Root::Attached {
+                position: root,
+                frame,
+            },
+            points,
+            material: Material::default(),
+        })
         .unwrap();
     let mut shaken = still.clone();
     let s = settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
@@ -222,11 +334,22 @@ fn a_shaking_head_swings_the_hair() {
         let head = HeadMotion {
             angular_velocity: Vector::new(0.0, w, 0.0),
             angular_acceleration: Vector::new(0.0, 24.0 * (6.0 * t).cos(), 0.0),
-            rotation: Rotation3::from_axis_angle(&Vector::y_axis(), -4.0 / 6.0 * ((6.0 * t).cos() - 1.0)),
+            rotation: Rotation3::from_axis_angle(
+                &Vector::y_axis(),
+                -4.0 / 6.0 * ((6.0 * t).cos() - 1.0),
+            ),
             ..HeadMotion::default()
         };
         still.step(&Environment::default(), &s).unwrap();
-        shaken.step(&Environment { head, ..Environment::default() }, &s).unwrap();
+        shaken
+            .step(
+                &Environment {
+                    head,
+                    ..Environment::default()
+                },
+                &s,
+            )
+            .unwrap();
     }
     let tip = still.nodes(id).end - 1;
     let d = (still.positions()[tip] - shaken.positions()[tip]).norm();
@@ -241,23 +364,57 @@ fn results_are_identical_for_any_thread_count() {
             let a = k as f32 * 0.1;
             let root = Point::new(0.1 * a.cos(), 0.1, 0.1 * a.sin());
             let frame = frame_along(Vector::new(a.cos(), 0.3, a.sin()));
-            let style = if k % 2 == 0 { Style::Curly { radius: 0.01, pitch: 0.03 } } else { Style::Straight };
+            let style = if k % 2 == 0 {
+                Style::Curly {
+                    radius: 0.01,
+                    pitch: 0.03,
+                }
+            } else {
+                Style::Straight
+            };
             let points = style_points(root, &frame, &style, 20, 0.25).unwrap();
             state
-                .add_skeleton(&SkeletonDesc { root: Root::Attached { position: root, frame }, points, material: Material::default() })
+                .add_skeleton(&SkeletonDesc {
+                    root: Root::Attached {
+                        position: root,
+                        frame,
+                    },
+                    points,
+                    material: Material::default(),
+                })
                 .unwrap();
         }
         state
     };
-    let env = Environment { wind: Wind { speed: 4.0, turbulence: 0.5, drag: 2e-3, ..Wind::default() }, ..Environment::default() };
+    let env = Environment {
+        wind: Wind {
+            speed: 4.0,
+            turbulence: 0.5,
+            drag: 2e-3,
+            ..Wind::default()
+        },
+        ..Environment::default()
+    };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut state = build();
             for _ in 0..60 {
-                state.step(&env, &settings(1.0 / 60.0, Integrator::ImplicitCoupled, TorqueModel::Chain)).unwrap();
+                state
+                    .step(
+                        &env,
+                        &settings(1.0 / 60.0, Integrator::ImplicitCoupled, TorqueModel::Chain),
+                    )
+                    .unwrap();
             }
-            state.positions().iter().flat_map(|p| p.coords.iter().map(|c| c.to_bits())).collect::<Vec<u32>>()
+            state
+                .positions()
+                .iter()
+                .flat_map(|p| p.coords.iter().map(|c| c.to_bits()))
+                .collect::<Vec<u32>>()
         })
     };
     assert_eq!(run(1), run(2));

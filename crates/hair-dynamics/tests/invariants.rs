@@ -13,7 +13,8 @@ fn integrator() -> impl Strategy<Value = Integrator> {
 fn style() -> impl Strategy<Value = Style> {
     prop_oneof![
         Just(Style::Straight),
-        (0.0f32..0.03, 0.02f32..0.2).prop_map(|(amplitude, period)| Style::Wavy { amplitude, period }),
+        (0.0f32..0.03, 0.02f32..0.2)
+            .prop_map(|(amplitude, period)| Style::Wavy { amplitude, period }),
         (0.0f32..0.02, 0.005f32..0.1).prop_map(|(radius, pitch)| Style::Curly { radius, pitch }),
     ]
 }
@@ -22,7 +23,8 @@ fn style() -> impl Strategy<Value = Style> {
 fn gentle_style() -> impl Strategy<Value = Style> {
     prop_oneof![
         Just(Style::Straight),
-        (0.0f32..0.01, 0.05f32..0.2).prop_map(|(amplitude, period)| Style::Wavy { amplitude, period }),
+        (0.0f32..0.01, 0.05f32..0.2)
+            .prop_map(|(amplitude, period)| Style::Wavy { amplitude, period }),
         (0.01f32..0.02, 0.02f32..0.1).prop_map(|(radius, pitch)| Style::Curly { radius, pitch }),
     ]
 }
@@ -104,7 +106,10 @@ proptest! {
 fn segment_lengths_hold_over_ten_thousand_steps() {
     for integrator in [Integrator::ImplicitAngular, Integrator::ImplicitCoupled] {
         let (mut state, id) = one_strand(
-            Style::Curly { radius: 0.01, pitch: 0.03 },
+            Style::Curly {
+                radius: 0.01,
+                pitch: 0.03,
+            },
             20,
             0.25,
             frame_along(Vector::new(1.0, 0.2, 0.0)),
@@ -121,14 +126,19 @@ fn segment_lengths_hold_over_ten_thousand_steps() {
             ..Environment::default()
         };
         for _ in 0..10_000 {
-            state.step(&env, &settings(1.0 / 120.0, integrator, TorqueModel::Chain)).unwrap();
+            state
+                .step(&env, &settings(1.0 / 120.0, integrator, TorqueModel::Chain))
+                .unwrap();
         }
         let r = state.nodes(id);
         let p = state.positions();
         for i in r.start + 1..r.end {
             let d = (p[i] - p[i - 1]).norm();
             let rest = state.rest_length()[i];
-            assert!((d - rest).abs() <= 1e-5 * rest, "{integrator:?} node {i}: {d} vs {rest}");
+            assert!(
+                (d - rest).abs() <= 1e-5 * rest,
+                "{integrator:?} node {i}: {d} vs {rest}"
+            );
         }
     }
 }
@@ -149,7 +159,10 @@ fn implicit_steps_never_gain_energy() {
                 continue;
             }
             let (mut state, _) = one_strand(
-                Style::Wavy { amplitude: 0.01, period: 0.08 },
+                Style::Wavy {
+                    amplitude: 0.01,
+                    period: 0.08,
+                },
                 16,
                 0.2,
                 frame_along(Vector::x()),
@@ -160,7 +173,11 @@ fn implicit_steps_never_gain_energy() {
                 *t += 0.3 * ((i as f32) * 0.7).sin();
             }
             let s = settings(1.0 / 60.0, integrator, torque);
-            let env = if gravity { Environment::default() } else { no_gravity() };
+            let env = if gravity {
+                Environment::default()
+            } else {
+                no_gravity()
+            };
             let first = state.model_energy(&env, torque);
             let mut last = first;
             for step in 0..600 {
@@ -173,7 +190,10 @@ fn implicit_steps_never_gain_energy() {
                 );
                 last = e;
             }
-            assert!(last < first, "{integrator:?} {torque:?}: damping must have taken energy out");
+            assert!(
+                last < first,
+                "{integrator:?} {torque:?}: damping must have taken energy out"
+            );
         }
     }
 }

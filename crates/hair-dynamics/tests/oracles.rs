@@ -3,7 +3,7 @@
 
 mod support;
 
-use hair_dynamics::reference::{elastica_tip, ReferenceScratch, ReferenceStrand};
+use hair_dynamics::reference::{ReferenceScratch, ReferenceStrand, elastica_tip};
 use hair_dynamics::*;
 use support::*;
 
@@ -52,14 +52,21 @@ fn pendulum_period_and_damping_ratio_match_the_analytic_values() {
     assert!(crossings.len() >= 4, "expected oscillations");
     let period = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
     let expected_period = 2.0 * std::f64::consts::PI / (omega0 * (1.0 - zeta * zeta).sqrt());
-    assert!(((period - expected_period) / expected_period).abs() < 1e-3, "period {period} vs {expected_period}");
+    assert!(
+        ((period - expected_period) / expected_period).abs() < 1e-3,
+        "period {period} vs {expected_period}"
+    );
     let peaks: Vec<f64> = (1..theta.len() - 1)
         .filter(|&i| theta[i] > theta[i - 1] && theta[i] >= theta[i + 1] && theta[i] > 0.0)
         .map(|i| theta[i])
         .collect();
     let decrement = (peaks[0] / peaks[3]).ln() / 3.0;
-    let measured_zeta = decrement / (4.0 * std::f64::consts::PI.powi(2) + decrement * decrement).sqrt();
-    assert!(((measured_zeta - zeta) / zeta).abs() < 1e-2, "damping ratio {measured_zeta} vs {zeta}");
+    let measured_zeta =
+        decrement / (4.0 * std::f64::consts::PI.powi(2) + decrement * decrement).sqrt();
+    assert!(
+        ((measured_zeta - zeta) / zeta).abs() < 1e-2,
+        "damping ratio {measured_zeta} vs {zeta}"
+    );
 }
 
 #[test]
@@ -69,9 +76,15 @@ fn each_integrator_converges_at_its_order() {
     let gamma = (2.0 * 0.05 * f64::from(m) * f64::from(d).powi(2) * omega0) as f32;
     let start = || pendulum(d, m, gamma, 0.5);
     let t_end = 1.0;
-    let reference = *run_theta(start(), Integrator::Rk4, 1e-5, 100_000).last().unwrap();
+    let reference = *run_theta(start(), Integrator::Rk4, 1e-5, 100_000)
+        .last()
+        .unwrap();
     for integrator in Integrator::ALL {
-        let hs: [f32; 3] = if integrator == Integrator::Rk4 { [1.0 / 50.0, 1.0 / 100.0, 1.0 / 200.0] } else { [1.0 / 400.0, 1.0 / 800.0, 1.0 / 1600.0] };
+        let hs: [f32; 3] = if integrator == Integrator::Rk4 {
+            [1.0 / 50.0, 1.0 / 100.0, 1.0 / 200.0]
+        } else {
+            [1.0 / 400.0, 1.0 / 800.0, 1.0 / 1600.0]
+        };
         let errors: Vec<f64> = hs
             .iter()
             .map(|&h| {
@@ -82,7 +95,10 @@ fn each_integrator_converges_at_its_order() {
         for pair in errors.windows(2) {
             let order = (pair[0] / pair[1]).log2();
             let expected = f64::from(integrator.order());
-            assert!((order - expected).abs() < 0.3, "{integrator:?}: errors {errors:?}, order {order} (expected {expected})");
+            assert!(
+                (order - expected).abs() < 0.3,
+                "{integrator:?}: errors {errors:?}, order {order} (expected {expected})"
+            );
         }
     }
 }
@@ -98,13 +114,22 @@ fn cantilever_tip(alpha: f64, segments: usize, torque: TorqueModel) -> (f64, f64
         damping: 0.0,
         ..Material::default()
     };
-    let (state, id) = one_strand(Style::Straight, segments + 1, length, frame_along(Vector::x()), material);
+    let (state, id) = one_strand(
+        Style::Straight,
+        segments + 1,
+        length,
+        frame_along(Vector::x()),
+        material,
+    );
     let mut s = ReferenceStrand::from_state(&state, id);
     let mut scratch = ReferenceScratch::default();
     let set = settings(1e-3, Integrator::ImplicitCoupled, torque);
     let env = Environment::default();
     let iters = s.relax(&env, &set, 2_000, 1e-12, &mut scratch);
-    assert!(iters.is_some(), "alpha {alpha}, {segments} segments, {torque:?}: did not converge");
+    assert!(
+        iters.is_some(),
+        "alpha {alpha}, {segments} segments, {torque:?}: did not converge"
+    );
     let tip = *s.positions().last().unwrap();
     (tip.x / f64::from(length), -tip.y / f64::from(length))
 }
@@ -117,12 +142,20 @@ fn chain_model_converges_to_the_elastica() {
         for segments in [8, 16, 32, 64] {
             let (x, y) = cantilever_tip(alpha, segments, TorqueModel::Chain);
             let err = (x - rx).hypot(y - ry);
-            eprintln!("alpha {alpha} segments {segments}: tip ({x:.6}, {y:.6}) vs ({rx:.6}, {ry:.6}), error {err:.2e}");
+            eprintln!(
+                "alpha {alpha} segments {segments}: tip ({x:.6}, {y:.6}) vs ({rx:.6}, {ry:.6}), error {err:.2e}"
+            );
             // Second order in the segment length: each halving divides the error by about four.
-            assert!(last_err / err > 3.5, "alpha {alpha}: error {err} at {segments} segments after {last_err}");
+            assert!(
+                last_err / err > 3.5,
+                "alpha {alpha}: error {err} at {segments} segments after {last_err}"
+            );
             last_err = err;
         }
-        assert!(last_err < 0.01, "alpha {alpha}: tip error {last_err} of L at 64 segments");
+        assert!(
+            last_err < 0.01,
+            "alpha {alpha}: tip error {last_err} of L at 64 segments"
+        );
     }
 }
 
@@ -131,7 +164,10 @@ fn local_model_barely_sags() {
     // The papers' local torque: each segment bears only its own weight (docs/dynamics.md).
     let (_, ry) = elastica_tip(10.0);
     let (_, y) = cantilever_tip(10.0, 32, TorqueModel::Local);
-    assert!(y < 0.5 * ry, "local model tip drop {y} should be far below the elastica's {ry}");
+    assert!(
+        y < 0.5 * ry,
+        "local model tip drop {y} should be far below the elastica's {ry}"
+    );
 }
 
 #[test]

@@ -49,13 +49,20 @@ pub(super) fn solve_step<T: RealField + Copy>(
         sc.rhs[l] = h * sc.tau[l] + h2 * (jw - k * w[l]);
     }
     let ok = match solver {
-        LinearSolver::Hand => lu_solve_in_place(&mut sc.lu[..m2 * m2], &mut sc.perm[..m2], &mut sc.rhs[..m2], m2),
+        LinearSolver::Hand => lu_solve_in_place(
+            &mut sc.lu[..m2 * m2],
+            &mut sc.perm[..m2],
+            &mut sc.rhs[..m2],
+            m2,
+        ),
         LinearSolver::Faer => faer_solve(&sc.lu[..m2 * m2], &mut sc.rhs[..m2], m2),
     };
     if !ok {
         // A singular system (an unstable equilibrium hit exactly) poisons the state on purpose:
         // the caller restores the strand and reports it rather than carrying a guess.
-        sc.rhs[..m2].iter_mut().for_each(|x| *x = T::zero() / T::zero());
+        sc.rhs[..m2]
+            .iter_mut()
+            .for_each(|x| *x = T::zero() / T::zero());
     }
     for c in 0..m2 {
         w[c] += sc.rhs[c];
@@ -65,7 +72,12 @@ pub(super) fn solve_step<T: RealField + Copy>(
 
 /// Solves `A x = b` for a row-major `n x n` matrix in place (`b` becomes `x`). Returns `false`
 /// when a pivot is exactly zero.
-pub(crate) fn lu_solve_in_place<T: RealField + Copy>(a: &mut [T], perm: &mut [usize], b: &mut [T], n: usize) -> bool {
+pub(crate) fn lu_solve_in_place<T: RealField + Copy>(
+    a: &mut [T],
+    perm: &mut [usize],
+    b: &mut [T],
+    n: usize,
+) -> bool {
     for (i, p) in perm.iter_mut().enumerate().take(n) {
         *p = i;
     }
@@ -119,8 +131,12 @@ pub(crate) fn lu_solve_in_place<T: RealField + Copy>(a: &mut [T], perm: &mut [us
 /// faer's LU as the reference solver (f32 and f64).
 fn faer_solve<T: RealField + Copy>(a: &[T], b: &mut [T], n: usize) -> bool {
     // faer is generic over its own field trait; go through f64, which is exact for f32 input.
-    let m = faer::Mat::<f64>::from_fn(n, n, |r, c| nalgebra::try_convert::<T, f64>(a[r * n + c]).unwrap_or(f64::NAN));
-    let rhs = faer::Mat::<f64>::from_fn(n, 1, |r, _| nalgebra::try_convert::<T, f64>(b[r]).unwrap_or(f64::NAN));
+    let m = faer::Mat::<f64>::from_fn(n, n, |r, c| {
+        nalgebra::try_convert::<T, f64>(a[r * n + c]).unwrap_or(f64::NAN)
+    });
+    let rhs = faer::Mat::<f64>::from_fn(n, 1, |r, _| {
+        nalgebra::try_convert::<T, f64>(b[r]).unwrap_or(f64::NAN)
+    });
     let lu = m.partial_piv_lu();
     let x = faer::linalg::solvers::Solve::solve(&lu, &rhs);
     let mut ok = true;
@@ -140,11 +156,15 @@ mod tests {
     fn hand_lu_matches_faer_on_random_systems() {
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5
         };
         for n in [1usize, 2, 5, 38, 62] {
-            let a: Vec<f64> = (0..n * n).map(|i| rnd() + if i % (n + 1) == 0 { 0.1 } else { 0.0 }).collect();
+            let a: Vec<f64> = (0..n * n)
+                .map(|i| rnd() + if i % (n + 1) == 0 { 0.1 } else { 0.0 })
+                .collect();
             let b: Vec<f64> = (0..n).map(|_| rnd()).collect();
             let mut x_hand = b.clone();
             let mut lu = a.clone();

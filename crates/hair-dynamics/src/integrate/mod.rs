@@ -121,7 +121,10 @@ pub struct StepReport {
 
 /// Advances one strand by one step in the scalar type `T`. Returns the first non-finite node, if
 /// any, after restoring the strand's coordinates.
-#[expect(clippy::too_many_arguments, reason = "the kernel's inputs are all distinct slices")]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the kernel's inputs are all distinct slices"
+)]
 pub(crate) fn step_strand<T: RealField + Copy>(
     root: &mut RootDyn<T>,
     q: &mut [T],
@@ -145,11 +148,12 @@ pub(crate) fn step_strand<T: RealField + Copy>(
     let root0 = *root;
     let model = settings.torque;
 
-    let eval = |root: &RootDyn<T>, q: &[T], w: &[T], length: &[T], jac: bool, sc: &mut Scratch<T>| {
-        strand::forward(root, q, w, length, sc);
-        strand::forces(root, p, length, env, sc);
-        strand::torques(root, p, q, w, length, model, jac, sc);
-    };
+    let eval =
+        |root: &RootDyn<T>, q: &[T], w: &[T], length: &[T], jac: bool, sc: &mut Scratch<T>| {
+            strand::forward(root, q, w, length, sc);
+            strand::forces(root, p, length, env, sc);
+            strand::torques(root, p, q, w, length, model, jac, sc);
+        };
 
     match settings.integrator {
         Integrator::ExplicitEuler => {
@@ -217,7 +221,11 @@ pub(crate) fn step_strand<T: RealField + Copy>(
         .map(|c| c / 2 + 1)
         .or_else(|| (0..n).find(|&i| !length[i].is_finite()))
         .or_else(|| {
-            let ok = root.position.iter().chain(root.velocity.iter()).all(|c| c.is_finite());
+            let ok = root
+                .position
+                .iter()
+                .chain(root.velocity.iter())
+                .all(|c| c.is_finite());
             (!ok).then_some(0)
         });
     if bad.is_some() {
@@ -237,10 +245,15 @@ fn symplectic_root<T: RealField + Copy>(root: &mut RootDyn<T>, acc: Vector3<T>, 
 }
 
 #[inline]
-pub(crate) fn spring_of<T: RealField + Copy>(root: &RootDyn<T>, p: &StrandParams<'_, T>, i: usize, c: usize) -> T {
+pub(crate) fn spring_of<T: RealField + Copy>(
+    root: &RootDyn<T>,
+    p: &StrandParams<'_, T>,
+    i: usize,
+    c: usize,
+) -> T {
     if root.free && i == 1 {
         T::zero()
-    } else if c % 2 == 0 {
+    } else if c.is_multiple_of(2) {
         p.k_theta[i]
     } else {
         p.k_phi[i]
@@ -275,7 +288,14 @@ fn rk4<T: RealField + Copy, F>(
     let weights = [T::one(), T::one() + T::one(), T::one() + T::one(), T::one()];
     let steps = [half, half, h, T::zero()];
     for s in 0..4 {
-        eval(&stage_root, &stage_q[..m2], &stage_w[..m2], length, false, sc);
+        eval(
+            &stage_root,
+            &stage_q[..m2],
+            &stage_w[..m2],
+            length,
+            false,
+            sc,
+        );
         let wt = weights[s];
         let next = steps[s];
         for c in 0..m2 {
@@ -488,7 +508,11 @@ impl StrandState {
     /// break distance at the end of the step are removed. A skeleton that goes non-finite is
     /// restored to its state before the step and reported as an error (the others keep their
     /// new state); results do not depend on the number of threads.
-    pub fn step(&mut self, env: &Environment, settings: &StepSettings) -> Result<StepReport, DynamicsError> {
+    pub fn step(
+        &mut self,
+        env: &Environment,
+        settings: &StepSettings,
+    ) -> Result<StepReport, DynamicsError> {
         if !(settings.dt.is_finite() && settings.dt > 0.0) {
             return Err(DynamicsError::InvalidTimeStep {
                 dt: f64::from(settings.dt),
@@ -533,14 +557,22 @@ impl StrandState {
                 velocities: &mut self.velocities,
                 roots: &mut self.roots,
             };
-            if skeletons == 0 { None } else { run_parallel(run, &sh) }
+            if skeletons == 0 {
+                None
+            } else {
+                run_parallel(run, &sh)
+            }
         };
         self.force_scratch = force;
         let step = self.steps;
         self.steps += 1;
         debug_assert_eq!(nodes, self.theta.len());
         if let Some((skeleton, node)) = bad {
-            return Err(DynamicsError::NonFiniteState { step, skeleton, node });
+            return Err(DynamicsError::NonFiniteState {
+                step,
+                skeleton,
+                node,
+            });
         }
         let bonds_broken = self.break_stretched_bonds();
         Ok(StepReport {

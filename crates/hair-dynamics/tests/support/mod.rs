@@ -12,7 +12,13 @@ pub fn frame_along(dir: Vector) -> Rotation3<Real> {
 }
 
 /// One attached strand with a style, returning the state and its id.
-pub fn one_strand(style: Style, n: usize, length: Real, frame: Rotation3<Real>, material: Material) -> (StrandState, SkeletonId) {
+pub fn one_strand(
+    style: Style,
+    n: usize,
+    length: Real,
+    frame: Rotation3<Real>,
+    material: Material,
+) -> (StrandState, SkeletonId) {
     let mut state = StrandState::new();
     let points = style_points(Point::origin(), &frame, &style, n, length).expect("valid style");
     let id = state
