@@ -13,7 +13,7 @@
 //! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | five integrators, local or chain torque |
 //! | [`NodeCorrection`], [`VelocityConstraint`] | collision response mapped back to angles |
 //! | [`Bond`] | hairspray bonds between skeletons, with a break distance |
-//! | [`reference`] | f64 single-strand reference and the cantilever elastica |
+//! | [`mod@reference`] | f64 single-strand reference and the cantilever elastica |
 //!
 //! ```
 //! use hair_dynamics::*;
