@@ -1,0 +1,79 @@
+//! # hair-io
+//!
+//! Hair and body file formats, with readers that never panic on bad bytes and name what is wrong.
+//!
+//! | item | what it reads and writes |
+//! |---|---|
+//! | [`Strands`] | plain strand data: points per strand, optional thickness, transparency, colour |
+//! | [`tfx`] | AMD TressFX `.tfx` (binary, fixed vertices per strand) |
+//! | [`cyhair`] | Cem Yuksel's `.hair` (binary, variable segments per strand) |
+//! | [`obj`] | Wavefront OBJ bodies as indexed triangles (via `tobj`) |
+//! | [`read_strands`], [`write_strands`] | by file extension |
+//!
+//! ```
+//! use hair_io::{cyhair, Strands};
+//!
+//! let strands = Strands::from_polylines(vec![
+//!     vec![[0.0, 0.0, 0.0], [0.0, -0.1, 0.0], [0.0, -0.2, 0.01]],
+//!     vec![[0.01, 0.0, 0.0], [0.01, -0.1, 0.0]],
+//! ])?;
+//! let bytes = cyhair::to_bytes(&strands);
+//! let back = cyhair::from_bytes(&bytes, "inline.hair")?;
+//! assert_eq!(back.points, strands.points);
+//! # Ok::<(), hair_io::IoError>(())
+//! ```
+
+pub mod cyhair;
+mod error;
+pub mod obj;
+mod strands;
+pub mod tfx;
+
+pub use error::IoError;
+pub use obj::Mesh;
+pub use strands::Strands;
+
+use std::path::Path;
+
+/// Reads strands from a `.tfx` or `.hair` file, chosen by extension.
+pub fn read_strands(path: &Path) -> Result<Strands, IoError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| IoError::Io {
+        file: name.clone(),
+        message: e.to_string(),
+    })?;
+    match extension(path).as_str() {
+        "tfx" => tfx::from_bytes(&bytes, &name),
+        "hair" => cyhair::from_bytes(&bytes, &name),
+        other => Err(IoError::UnknownFormat {
+            file: name,
+            extension: other.to_string(),
+        }),
+    }
+}
+
+/// Writes strands to a `.tfx` or `.hair` file, chosen by extension.
+pub fn write_strands(path: &Path, strands: &Strands) -> Result<(), IoError> {
+    let name = path.display().to_string();
+    let bytes = match extension(path).as_str() {
+        "tfx" => tfx::to_bytes(strands, &name)?,
+        "hair" => cyhair::to_bytes(strands),
+        other => {
+            return Err(IoError::UnknownFormat {
+                file: name,
+                extension: other.to_string(),
+            });
+        }
+    };
+    std::fs::write(path, bytes).map_err(|e| IoError::Io {
+        file: name,
+        message: e.to_string(),
+    })
+}
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
