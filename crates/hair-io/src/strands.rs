@@ -127,7 +127,7 @@ pub(crate) struct Reader<'a> {
 
 impl Reader<'_> {
     pub fn slice(&self, what: &'static str, start: u64, len: u64) -> Result<&[u8], IoError> {
-        let end = start.checked_add(len).unwrap_or(u64::MAX);
+        let end = start.saturating_add(len);
         let file_len = self.bytes.len() as u64;
         if end > file_len {
             return Err(IoError::Truncated {

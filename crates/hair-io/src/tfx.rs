@@ -53,7 +53,7 @@ pub fn from_bytes(bytes: &[u8], file: &str) -> Result<Strands, IoError> {
             expected: "past the header",
         });
     }
-    let count = strands.checked_mul(per).unwrap_or(u64::MAX);
+    let count = strands.saturating_mul(per);
     let raw = r.slice("vertex positions", pos_at, count.saturating_mul(16))?;
     let mut points = Vec::with_capacity(count as usize);
     let mut it = f32s(raw);
