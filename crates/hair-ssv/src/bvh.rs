@@ -248,7 +248,9 @@ impl Bvh {
     pub fn contacts(&self, ssv: &Ssv, margin: Real, out: &mut Vec<MeshContact>) {
         let start_len = out.len();
         let (mut lo, mut hi) = ssv.aabb();
-        let m = Vector::repeat(margin.max(0.0));
+        // the margin, plus a little so that rounding never rejects a triangle at the boundary
+        let slack = 1e-6 * (1.0 + lo.coords.abs().max().max(hi.coords.abs().max()));
+        let m = Vector::repeat(margin.max(0.0) + slack);
         lo -= m;
         hi += m;
         let reach = ssv.radius() + margin;

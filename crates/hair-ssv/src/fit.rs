@@ -72,12 +72,17 @@ pub fn fit_lss(points: &[Point]) -> Result<Lss, SsvError> {
         let t = d.dot(&u);
         r2 = r2.max((d - u * t).norm_squared());
     }
-    let r = r2.sqrt() * (1.0 + PAD) + scale * PAD;
+    // the ends are placed with a slightly smaller radius than the one reported, so that the
+    // rounding of `sqrt(r^2 - rho^2)` cannot leave a point outside a cap
+    let r_ends = r2.sqrt() * (1.0 + PAD) + scale * PAD;
+    let r = r2.sqrt() * (1.0 + 2.0 * PAD) + scale * 2.0 * PAD;
     let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
     for p in points {
         let d = p - mean;
         let t = d.dot(&u);
-        let h = (r * r - (d - u * t).norm_squared()).max(0.0).sqrt();
+        let h = (r_ends * r_ends - (d - u * t).norm_squared())
+            .max(0.0)
+            .sqrt();
         lo = lo.min(t + h);
         hi = hi.max(t - h);
     }
@@ -124,7 +129,9 @@ where
         wmin = wmin.min(z);
         wmax = wmax.max(z);
     }
+    // sides and corners are placed with a slightly smaller radius than the one reported
     let r = 0.5 * (wmax - wmin) * (1.0 + PAD) + scale * PAD;
+    let r_final = 0.5 * (wmax - wmin) * (1.0 + 2.0 * PAD) + scale * 2.0 * PAD;
     let wmid = 0.5 * (wmin + wmax);
     // shrink each side by the room the sphere leaves at that point's height
     let (mut ulo, mut uhi, mut vlo, mut vhi) = (
@@ -172,19 +179,24 @@ where
         if dx * dx + dy * dy <= h2 {
             continue;
         }
-        // move the u side so that the corner distance becomes h, or the v side, whichever is less
+        // move the u side so that the corner distance becomes h, or the v side, whichever is
+        // less; a side the point is not beyond never moves (it could only shrink)
         let need_u = dx - (h2 - dy * dy).max(0.0).sqrt();
         let need_v = dy - (h2 - dx * dx).max(0.0).sqrt();
-        if need_u <= need_v {
+        if dx > 0.0 && (dy <= 0.0 || need_u <= need_v) {
+            let room = (h2 - dy * dy).max(0.0).sqrt();
             if x < ulo {
-                ulo = x + (h2 - dy * dy).max(0.0).sqrt()
+                ulo = ulo.min(x + room);
             } else {
-                uhi = x - (h2 - dy * dy).max(0.0).sqrt()
+                uhi = uhi.max(x - room);
             }
-        } else if y < vlo {
-            vlo = y + (h2 - dx * dx).max(0.0).sqrt();
-        } else {
-            vhi = y - (h2 - dx * dx).max(0.0).sqrt();
+        } else if dy > 0.0 {
+            let room = (h2 - dx * dx).max(0.0).sqrt();
+            if y < vlo {
+                vlo = vlo.min(y + room);
+            } else {
+                vhi = vhi.max(y - room);
+            }
         }
     }
     let origin = mean + u * ulo + v * vlo + w * wmid;
@@ -192,6 +204,6 @@ where
         origin,
         [u, v],
         [(uhi - ulo).max(0.0), (vhi - vlo).max(0.0)],
-        r,
+        r_final,
     ))
 }

@@ -44,13 +44,16 @@ fn ray_triangle(origin: &Point, dir: &Vector, tri: &[Point; 3]) -> Option<Real> 
     }
     let inv = 1.0 / det;
     let s = origin - tri[0];
+    // a little slack on the barycentric tests so that a ray through a shared edge or vertex
+    // cannot slip between the triangles by rounding
+    const SLACK: Real = 1e-5;
     let u = s.dot(&p) * inv;
-    if !(0.0..=1.0).contains(&u) {
+    if !(-SLACK..=1.0 + SLACK).contains(&u) {
         return None;
     }
     let q = s.cross(&e1);
     let v = dir.dot(&q) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < -SLACK || u + v > 1.0 + SLACK {
         return None;
     }
     let t = e2.dot(&q) * inv;
@@ -59,7 +62,8 @@ fn ray_triangle(origin: &Point, dir: &Vector, tri: &[Point; 3]) -> Option<Real> 
 
 impl Bvh {
     /// The first triangle hit by the ray `origin + t * dir`, `0 <= t <= max_t` (`dir` need not be
-    /// unit; `t` is in units of `dir`). Ties go to the lower triangle index.
+    /// unit; `t` is in units of `dir`). Ties go to the lower triangle index. A ray lying in a
+    /// triangle's plane does not hit it.
     pub fn cast_ray(&self, origin: &Point, dir: &Vector, max_t: Real) -> Option<RayHit> {
         let inv = Vector::new(1.0 / dir.x, 1.0 / dir.y, 1.0 / dir.z);
         let mut best: Option<(Real, u32, usize)> = None;

@@ -22,8 +22,12 @@ fn head_bump(theta: Real, phi: Real) -> Real {
         + 0.008 * (13.0 * theta + 1.0).sin() * (11.0 * phi).sin()
 }
 
-/// Appends a triangle, wound so its normal points away from `inside`.
+/// Appends a triangle, wound so its normal points away from `inside`, unless it lies inside
+/// the neck (the head's and the shoulders' caps there are interior after the merge).
 fn push_tri(tris: &mut Vec<[u32; 3]>, v: &[Point], t: [u32; 3], inside: &Point) {
+    if in_neck(v, t) {
+        return;
+    }
     let [a, b, c] = t.map(|i| v[i as usize]);
     let n = (b - a).cross(&(c - a));
     let centroid = Point::from((a.coords + b.coords + c.coords) / 3.0);
@@ -34,6 +38,18 @@ fn push_tri(tris: &mut Vec<[u32; 3]>, v: &[Point], t: [u32; 3], inside: &Point) 
     }
 }
 
+/// Whether `p` is inside the neck tube between the shoulders and the head, where the merge
+/// leaves fragments of the caps: samplers of "points near the surface" skip it.
+pub fn inside_neck(p: &Point) -> bool {
+    p.x * p.x + p.z * p.z < NECK_RADIUS * NECK_RADIUS && p.y < HEAD.0[1] && p.y > SHOULDERS.0[1]
+}
+
+/// Whether a triangle lies inside the neck tube (interior geometry the merge removes).
+fn in_neck(v: &[Point], t: [u32; 3]) -> bool {
+    t.iter().all(|&i| inside_neck(&v[i as usize]))
+}
+
+#[allow(clippy::too_many_arguments, reason = "a private generator")]
 fn ellipsoid(
     center: [Real; 3],
     radii: [Real; 3],
