@@ -4,7 +4,10 @@
 use rayon::prelude::*;
 
 use crate::fit::fit_rss_iter;
-use crate::query::{Closest, point_rectangle, rectangle_rectangle, segment_rectangle};
+use crate::query::rectangle_rectangle::rectangle_rectangle_lower_bound;
+use crate::query::segment_rectangle::segment_rectangle_lower_bound;
+use crate::query::separation::{rect_support, rect_support_min};
+use crate::query::{Closest, point_rectangle};
 use crate::{Contact, Point, Real, Rss, Ssv, SsvError, Vector};
 
 /// Triangles per leaf.
@@ -74,6 +77,8 @@ pub struct Bvh {
     pub(crate) tris: Vec<[Point; 3]>,
     /// Per triangle in leaf order: axis-aligned bounds.
     tri_bounds: Vec<(Point, Point)>,
+    /// Per triangle in leaf order: unit face normal.
+    tri_normals: Vec<Vector>,
     /// Per triangle in leaf order: index in the input mesh.
     pub(crate) tri_ids: Vec<u32>,
     /// Triangles in input order.
@@ -141,10 +146,15 @@ impl Bvh {
         build(&input, &centroids, &mut order, 0, &mut nodes);
         let tris: Vec<[Point; 3]> = order.iter().map(|&i| input[i as usize]).collect();
         let tri_bounds = tris.iter().map(tri_bounds).collect();
+        let tri_normals = tris
+            .iter()
+            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])).try_normalize(0.0).unwrap_or_else(Vector::z))
+            .collect();
         Ok(Self {
             nodes,
             tris,
             tri_bounds,
+            tri_normals,
             tri_ids: order,
             input,
         })
@@ -258,6 +268,7 @@ impl Bvh {
             return;
         }
         let reach2 = reach * reach;
+        let reach_plane = reach * (1.0 + 1e-5) + slack;
         let mut stack = [0u32; 64];
         let mut sp = 1usize;
         let mut overflow = false;
@@ -268,8 +279,7 @@ impl Bvh {
             if !aabb_overlap(&lo, &hi, &node.lo, &node.hi) {
                 continue;
             }
-            let nr = reach + node.rss.radius;
-            if node_lower_bound_sq(ssv, &node.rss) > nr * nr {
+            if node_lower_bound(ssv, &node.rss) > reach {
                 continue;
             }
             if node.count > 0 {
@@ -277,6 +287,11 @@ impl Bvh {
                 for k in start..start + node.count as usize {
                     let (tlo, thi) = &self.tri_bounds[k];
                     if !aabb_overlap(&lo, &hi, tlo, thi) {
+                        continue;
+                    }
+                    // the triangle's plane separates by more than the reach: no contact
+                    let (dmin, dmax) = core_interval(ssv, &self.tris[k][0], &self.tri_normals[k]);
+                    if dmin > reach_plane || dmax < -reach_plane {
                         continue;
                     }
                     let c = ssv.closest_to_triangle(&self.tris[k]);
@@ -362,22 +377,40 @@ fn aabb_overlap(alo: &Point, ahi: &Point, blo: &Point, bhi: &Point) -> bool {
         && blo.z <= ahi.z
 }
 
-/// Squared distance from `ssv`'s core to the core rectangle of a node, minus nothing: a lower
-/// bound for the core-to-triangle distance once the node radius is taken off.
+/// Lower bound of the distance from `ssv`'s core to every triangle of a node: a lower bound of
+/// the distance to the node's core rectangle (exact for points, a separation gap otherwise)
+/// minus the node's radius.
 #[inline]
-fn node_core_dist_sq(ssv: &Ssv, rss: &Rss) -> Real {
-    match ssv {
-        Ssv::Point(p) => point_rectangle(&p.center, rss).dist_sq,
-        Ssv::Line(l) => segment_rectangle(&l.a, &l.b, rss).dist_sq,
-        Ssv::Rect(r) => rectangle_rectangle(r, rss).dist_sq,
-    }
+fn node_lower_bound(ssv: &Ssv, rss: &Rss) -> Real {
+    let core = match ssv {
+        Ssv::Point(p) => point_rectangle(&p.center, rss).distance(),
+        Ssv::Line(l) => segment_rectangle_lower_bound(&l.a, &l.b, rss),
+        Ssv::Rect(r) => rectangle_rectangle_lower_bound(r, rss),
+    };
+    core - rss.radius
 }
 
-/// Lower bound of the squared core-to-triangle distance over a node's triangles.
+/// The squared lower bound, zero when it is negative.
 #[inline]
 fn node_lower_bound_sq(ssv: &Ssv, rss: &Rss) -> Real {
-    let d = node_core_dist_sq(ssv, rss).sqrt() - rss.radius;
+    let d = node_lower_bound(ssv, rss);
     if d > 0.0 { d * d } else { 0.0 }
+}
+
+/// The range of `(p - origin) . n` over the core of `ssv`.
+#[inline(always)]
+fn core_interval(ssv: &Ssv, origin: &Point, n: &Vector) -> (Real, Real) {
+    match ssv {
+        Ssv::Point(p) => {
+            let d = (p.center - origin).dot(n);
+            (d, d)
+        }
+        Ssv::Line(l) => {
+            let (a, b) = ((l.a - origin).dot(n), (l.b - origin).dot(n));
+            (a.min(b), a.max(b))
+        }
+        Ssv::Rect(r) => (rect_support_min(r, origin, n), rect_support(r, origin, n)),
+    }
 }
 
 /// Recursive top-down build over `order[..]` (a slice of the global order starting at `base`).

@@ -7,11 +7,12 @@
 mod point_rectangle;
 mod point_segment;
 mod point_triangle;
-mod rectangle_rectangle;
+pub(crate) mod rectangle_rectangle;
 mod rectangle_triangle;
-mod segment_rectangle;
+pub(crate) mod segment_rectangle;
 mod segment_segment;
 mod segment_triangle;
+pub(crate) mod separation;
 
 pub use point_rectangle::point_rectangle;
 pub use point_segment::point_segment;

@@ -6,9 +6,9 @@ use crate::{Point, Real};
 
 /// Closest points between the segments `p0`-`p1` and `q0`-`q1`.
 ///
-/// The lines' solution is computed in f64 from cross products, so nearly parallel segments keep
-/// their accuracy; exactly parallel, zero-length and coincident segments take the clamped
-/// projections alone, which are exact for them.
+/// The lines' solution comes from cross products, so nearly parallel segments keep their
+/// accuracy; exactly parallel, zero-length and coincident segments take the clamped projections
+/// alone, which are exact for them.
 #[inline]
 pub fn segment_segment(p0: &Point, p1: &Point, q0: &Point, q1: &Point) -> Closest {
     let (s, t) = segment_segment_params(p0, p1, q0, q1);
@@ -31,24 +31,14 @@ pub(crate) fn segment_segment_params(
     let b = d1.dot(&d2);
     let c = d1.dot(&r);
     let f = d2.dot(&r);
-    // s on the infinite lines = ((d1 x d2) . (d2 x r)) / |d1 x d2|^2, free of the cancellation
-    // in `a e - b^2`.
-    let (d1x, d1y, d1z) = (d1.x as f64, d1.y as f64, d1.z as f64);
-    let (d2x, d2y, d2z) = (d2.x as f64, d2.y as f64, d2.z as f64);
-    let (rx, ry, rz) = (r.x as f64, r.y as f64, r.z as f64);
-    let nx = d1y * d2z - d1z * d2y;
-    let ny = d1z * d2x - d1x * d2z;
-    let nz = d1x * d2y - d1y * d2x;
-    let mx = d2y * rz - d2z * ry;
-    let my = d2z * rx - d2x * rz;
-    let mz = d2x * ry - d2y * rx;
-    let denom = nx * nx + ny * ny + nz * nz;
-    let num = nx * mx + ny * my + nz * mz;
-    let s0 = if denom > 0.0 {
-        clamp_to((num / denom) as Real, 1.0)
-    } else {
-        0.0
-    };
+    // s on the infinite lines = ((d1 x d2) . (d2 x r)) / |d1 x d2|^2: the cross products lose
+    // only `eps / sin(angle)` where `a e - b^2` would lose `eps / sin(angle)^2`, which keeps the
+    // distance error at a few ulps of the segments' length even for nearly parallel segments.
+    let n = d1.cross(&d2);
+    let m = d2.cross(&r);
+    let denom = n.dot(&n);
+    let num = n.dot(&m);
+    let s0 = if denom > 0.0 { clamp_to(num / denom, 1.0) } else { 0.0 };
     let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
     let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
     let t = clamp_to((b * s0 + f) * inv_e, 1.0);
