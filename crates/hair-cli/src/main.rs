@@ -8,6 +8,7 @@ mod bench;
 mod chart;
 mod hierarchy;
 mod stability;
+mod strand_setup;
 
 use clap::{Parser, Subcommand};
 
