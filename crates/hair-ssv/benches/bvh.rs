@@ -15,7 +15,11 @@ fn bvh(c: &mut Criterion) {
         .map(|_| {
             let off = rng.range(-0.003, 0.006);
             let (p, _) = rng.surface_point(bvh.triangles(), off);
-            let d = Vector::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+            let d = Vector::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
             Ssv::Line(Lss::new(p, p + d.normalize() * 0.015, 0.002))
         })
         .collect();
@@ -29,7 +33,9 @@ fn bvh(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("bvh");
     g.sample_size(10);
-    g.bench_function("build_50k", |b| b.iter(|| black_box(Bvh::new(&v, &t).expect("valid"))));
+    g.bench_function("build_50k", |b| {
+        b.iter(|| black_box(Bvh::new(&v, &t).expect("valid")))
+    });
     g.sample_size(30);
     g.throughput(Throughput::Elements(segs.len() as u64));
     let mut out = Vec::with_capacity(256);
@@ -42,7 +48,9 @@ fn bvh(c: &mut Criterion) {
             black_box(out.len())
         })
     });
-    g.bench_function("lss_contacts_batch_parallel", |b| b.iter(|| black_box(bvh.contacts_batch(&segs, 0.0))));
+    g.bench_function("lss_contacts_batch_parallel", |b| {
+        b.iter(|| black_box(bvh.contacts_batch(&segs, 0.0)))
+    });
     g.throughput(Throughput::Elements(pts.len() as u64));
     g.bench_function("point_closest", |b| {
         b.iter(|| {

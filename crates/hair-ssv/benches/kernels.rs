@@ -11,8 +11,16 @@ const N: usize = 1024;
 
 fn axes(rng: &mut SplitMix) -> [Vector; 2] {
     loop {
-        let u = Vector::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
-        let w = Vector::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        let u = Vector::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
+        let w = Vector::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
         if let Some(u) = u.try_normalize(1e-2)
             && let Some(v) = (w - u * u.dot(&w)).try_normalize(1e-2)
         {
@@ -28,7 +36,12 @@ fn lss(rng: &mut SplitMix) -> Lss {
 
 fn rss(rng: &mut SplitMix) -> Rss {
     let o = rng.point_near(&Point::origin(), 0.05);
-    Rss::new(o, axes(rng), [rng.range(0.0, 0.04), rng.range(0.0, 0.02)], rng.range(0.0, 0.003))
+    Rss::new(
+        o,
+        axes(rng),
+        [rng.range(0.0, 0.04), rng.range(0.0, 0.02)],
+        rng.range(0.0, 0.003),
+    )
 }
 
 fn tri(rng: &mut SplitMix) -> [Point; 3] {

@@ -148,7 +148,12 @@ impl Bvh {
         let tri_bounds = tris.iter().map(tri_bounds).collect();
         let tri_normals = tris
             .iter()
-            .map(|t| (t[1] - t[0]).cross(&(t[2] - t[0])).try_normalize(0.0).unwrap_or_else(Vector::z))
+            .map(|t| {
+                (t[1] - t[0])
+                    .cross(&(t[2] - t[0]))
+                    .try_normalize(0.0)
+                    .unwrap_or_else(Vector::z)
+            })
             .collect();
         Ok(Self {
             nodes,

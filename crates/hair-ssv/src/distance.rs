@@ -3,7 +3,8 @@
 
 use crate::query::{
     Closest, point_rectangle, point_segment, point_triangle, rectangle_rectangle,
-    rectangle_triangle, segment_rectangle, segment_segment, segment_triangle,
+    rectangle_triangle, segment_rectangle, segment_segment, segment_segment_dist_sq,
+    segment_triangle,
 };
 use crate::{Lss, Point, Pss, Real, Rss, Ssv};
 
@@ -28,7 +29,7 @@ pub fn distance_pss_rss(a: &Pss, b: &Rss) -> Real {
 /// Signed distance between two LSS.
 #[inline]
 pub fn distance_lss_lss(a: &Lss, b: &Lss) -> Real {
-    segment_segment(&a.a, &a.b, &b.a, &b.b).distance() - a.radius - b.radius
+    segment_segment_dist_sq(&a.a, &a.b, &b.a, &b.b).sqrt() - a.radius - b.radius
 }
 
 /// Signed distance between an LSS and an RSS.

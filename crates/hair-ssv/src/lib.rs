@@ -21,6 +21,7 @@ pub mod bvh;
 mod contact;
 mod cylinder_map;
 mod distance;
+mod distance_batch;
 mod error;
 pub mod fit;
 pub mod query;
@@ -39,6 +40,7 @@ pub use distance::{
     distance_lss_lss, distance_lss_rss, distance_pss_lss, distance_pss_pss, distance_pss_rss,
     distance_rss_rss,
 };
+pub use distance_batch::distance_lss_lss_batch;
 pub use error::SsvError;
 pub use fit::{fit_lss, fit_rss, fit_rss_triangles};
 pub use ray::RayHit;

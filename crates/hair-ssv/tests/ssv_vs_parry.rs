@@ -74,6 +74,23 @@ proptest! {
     }
 
     #[test]
+    fn batched_lss_distances_match_the_scalar_kernel(pairs in proptest::collection::vec(lss_pair(), 0..40), k in scale()) {
+        let pairs: Vec<(Lss, Lss)> = pairs
+            .iter()
+            .map(|(a, b)| match (scale_ssv(&Ssv::Line(*a), k), scale_ssv(&Ssv::Line(*b), k)) {
+                (Ssv::Line(a), Ssv::Line(b)) => (a, b),
+                _ => unreachable!(),
+            })
+            .collect();
+        let mut out = vec![0.0; pairs.len()];
+        hair_ssv::distance_lss_lss_batch(&pairs, &mut out);
+        for ((a, b), d) in pairs.iter().zip(&out) {
+            let scalar = hair_ssv::distance_lss_lss(a, b);
+            prop_assert!((scalar - d).abs() <= 1e-6 * k, "{scalar} vs {d}");
+        }
+    }
+
+    #[test]
     fn rss_rss_matches_parry((a, b) in rss_pair(), k in scale()) {
         check_pair(&Ssv::Rect(a), &Ssv::Rect(b), k)?;
     }

@@ -20,7 +20,7 @@ pub use point_triangle::point_triangle;
 pub use rectangle_rectangle::rectangle_rectangle;
 pub use rectangle_triangle::rectangle_triangle;
 pub use segment_rectangle::segment_rectangle;
-pub use segment_segment::segment_segment;
+pub use segment_segment::{segment_segment, segment_segment_dist_sq};
 pub use segment_triangle::segment_triangle;
 
 use crate::{Point, Real};

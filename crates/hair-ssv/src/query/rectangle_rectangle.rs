@@ -39,7 +39,9 @@ fn rectangle_rectangle_fast(a: &Rss, b: &Rss) -> Option<Closest> {
     let cand = match (rect_feature(a, sa, ta), rect_feature(b, sb, tb)) {
         (RectFeature::Vertex(p), _) => point_rectangle(&p, b),
         (_, RectFeature::Vertex(q)) => point_rectangle(&q, a).swapped(),
-        (RectFeature::Edge(p0, p1), RectFeature::Edge(q0, q1)) => segment_segment(&p0, &p1, &q0, &q1),
+        (RectFeature::Edge(p0, p1), RectFeature::Edge(q0, q1)) => {
+            segment_segment(&p0, &p1, &q0, &q1)
+        }
         _ => {
             let (sb, tb) = rect_params(b, &x);
             Closest::from_points(x, rect_point(b, sb, tb))
@@ -47,8 +49,13 @@ fn rectangle_rectangle_fast(a: &Rss, b: &Rss) -> Option<Closest> {
     };
     let d = cand.on_b - cand.on_a;
     let size = a.extents[0] + a.extents[1] + b.extents[0] + b.extents[1];
-    certified(&cand, rect_support(a, &cand.on_a, &d), rect_support_min(b, &cand.on_a, &d), size)
-        .then_some(cand)
+    certified(
+        &cand,
+        rect_support(a, &cand.on_a, &d),
+        rect_support_min(b, &cand.on_a, &d),
+        size,
+    )
+    .then_some(cand)
 }
 
 /// A lower bound of the distance between two rectangles (one round of projections and the gap

@@ -4,7 +4,9 @@
 //! segment end or a rectangle edge: when both closest points are interior, the segment is
 //! parallel to the plane and can slide to one of those without changing the distance.
 
-use super::separation::{RectFeature, certified, rect_feature, rect_params, rect_point, rect_support_min};
+use super::separation::{
+    RectFeature, certified, rect_feature, rect_params, rect_point, rect_support_min,
+};
 use super::{Closest, clamp_to, point_rectangle, point_segment, segment_segment};
 use crate::{Point, Real, Rss};
 
@@ -24,7 +26,12 @@ pub fn segment_rectangle(p0: &Point, p1: &Point, rect: &Rss) -> Closest {
 /// Alternating projections between the segment and the rectangle, starting from the segment's
 /// midpoint: `(u, x, s, t, y)` with `x = p0 + u (p1 - p0)` and `y` the rectangle's point `(s, t)`.
 #[inline(always)]
-fn alternate(p0: &Point, p1: &Point, rect: &Rss, iterations: usize) -> (Real, Point, Real, Real, Point) {
+fn alternate(
+    p0: &Point,
+    p1: &Point,
+    rect: &Rss,
+    iterations: usize,
+) -> (Real, Point, Real, Real, Point) {
     let d = p1 - p0;
     let dd = d.norm_squared();
     let inv = if dd > 0.0 { 1.0 / dd } else { 0.0 };

@@ -9,20 +9,27 @@ use crate::{Point, Real, Rss, Vector};
 /// `max over the rectangle of (p - x) . d`.
 #[inline(always)]
 pub(crate) fn rect_support(r: &Rss, x: &Point, d: &Vector) -> Real {
-    (r.origin - x).dot(d) + (r.extents[0] * r.axes[0].dot(d)).max(0.0) + (r.extents[1] * r.axes[1].dot(d)).max(0.0)
+    (r.origin - x).dot(d)
+        + (r.extents[0] * r.axes[0].dot(d)).max(0.0)
+        + (r.extents[1] * r.axes[1].dot(d)).max(0.0)
 }
 
 /// `min over the rectangle of (p - x) . d`.
 #[inline(always)]
 pub(crate) fn rect_support_min(r: &Rss, x: &Point, d: &Vector) -> Real {
-    (r.origin - x).dot(d) + (r.extents[0] * r.axes[0].dot(d)).min(0.0) + (r.extents[1] * r.axes[1].dot(d)).min(0.0)
+    (r.origin - x).dot(d)
+        + (r.extents[0] * r.axes[0].dot(d)).min(0.0)
+        + (r.extents[1] * r.axes[1].dot(d)).min(0.0)
 }
 
 /// Local clamped coordinates of the projection of `p` onto the rectangle.
 #[inline(always)]
 pub(crate) fn rect_params(r: &Rss, p: &Point) -> (Real, Real) {
     let d = p - r.origin;
-    (clamp_to(d.dot(&r.axes[0]), r.extents[0]), clamp_to(d.dot(&r.axes[1]), r.extents[1]))
+    (
+        clamp_to(d.dot(&r.axes[0]), r.extents[0]),
+        clamp_to(d.dot(&r.axes[1]), r.extents[1]),
+    )
 }
 
 /// The rectangle's point at local coordinates `(s, t)`.
