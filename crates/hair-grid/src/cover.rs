@@ -1,0 +1,254 @@
+//! Conservative cell covers of cores grown by an offset (salon paper §4.3.1: the cells that
+//! contain the core shape, then the cells reached by the offset).
+//!
+//! Everything here works in cell units (a point `p` in metres is `p / h`), in `f64`. A cover
+//! holds every cell that contains a point of the core grown by a cube of half-side `r`, a
+//! superset of the core grown by a ball of radius `r`; the callers add a small slack to `r`
+//! against rounding.
+
+/// Inclusive range of cells on each axis that a walk may emit (cells outside are skipped).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct CellBox {
+    pub lo: [i64; 3],
+    pub hi: [i64; 3],
+}
+
+impl CellBox {
+    /// Every cell of the lattice.
+    pub const ALL: CellBox = CellBox {
+        lo: [i64::MIN / 4; 3],
+        hi: [i64::MAX / 4; 3],
+    };
+}
+
+/// The walk emitted more cells than its limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct OverLimit;
+
+/// `floor` as an integer, without a libm call (`as` saturates; callers have validated
+/// finiteness and range).
+#[inline]
+pub(crate) fn floor_i(v: f64) -> i64 {
+    let t = v as i64;
+    if (t as f64) > v { t - 1 } else { t }
+}
+
+/// The parameters `t` in `[t0, t1]` where `p + t d` lies in `[lo, hi]`.
+#[inline]
+fn slab(p: f64, d: f64, lo: f64, hi: f64, t0: f64, t1: f64) -> Option<(f64, f64)> {
+    if d == 0.0 {
+        if p >= lo && p <= hi {
+            Some((t0, t1))
+        } else {
+            None
+        }
+    } else {
+        let (mut s0, mut s1) = ((lo - p) / d, (hi - p) / d);
+        if s0 > s1 {
+            std::mem::swap(&mut s0, &mut s1);
+        }
+        let (s0, s1) = (s0.max(t0), s1.min(t1));
+        (s0 <= s1).then_some((s0, s1))
+    }
+}
+
+#[inline]
+fn span(p: f64, d: f64, t0: f64, t1: f64) -> (f64, f64) {
+    let (u, v) = (p + t0 * d, p + t1 * d);
+    if u <= v { (u, v) } else { (v, u) }
+}
+
+/// Emits, in increasing `(x, y, z)` order, every cell within the clip box that meets the segment
+/// `a`-`b` grown by a cube of half-side `r`. Returns the number of cells, or `OverLimit` as soon
+/// as more than `limit` would be emitted.
+pub(crate) fn segment(
+    a: [f64; 3],
+    b: [f64; 3],
+    r: f64,
+    clip: &CellBox,
+    limit: u64,
+    emit: &mut impl FnMut([i64; 3]),
+) -> Result<u64, OverLimit> {
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let (x0, x1) = span(a[0], d[0], 0.0, 1.0);
+    let i0 = floor_i(x0 - r).max(clip.lo[0]);
+    let i1 = floor_i(x1 + r).min(clip.hi[0]);
+    let mut count = 0u64;
+    for i in i0..=i1 {
+        let fi = i as f64;
+        let Some((t0, t1)) = slab(a[0], d[0], fi - r, fi + 1.0 + r, 0.0, 1.0) else {
+            continue;
+        };
+        let (y0, y1) = span(a[1], d[1], t0, t1);
+        let j0 = floor_i(y0 - r).max(clip.lo[1]);
+        let j1 = floor_i(y1 + r).min(clip.hi[1]);
+        for j in j0..=j1 {
+            let fj = j as f64;
+            let Some((u0, u1)) = slab(a[1], d[1], fj - r, fj + 1.0 + r, t0, t1) else {
+                continue;
+            };
+            let (z0, z1) = span(a[2], d[2], u0, u1);
+            let k0 = floor_i(z0 - r).max(clip.lo[2]);
+            let k1 = floor_i(z1 + r).min(clip.hi[2]);
+            if k1 >= k0 {
+                count += (k1 - k0 + 1) as u64;
+                if count > limit {
+                    return Err(OverLimit);
+                }
+                for k in k0..=k1 {
+                    emit([i, j, k]);
+                }
+            }
+        }
+    }
+    Ok(count)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Emits, in increasing `(x, y, z)` order, every cell within the clip box that meets the flat
+/// convex polygon `verts` (a triangle or a rectangle, in order around it) grown by a cube of
+/// half-side `r`. Cells of the polygon's bounding box are kept when they pass the separating-axis
+/// tests on the plane normal and the in-plane edge normals (the remaining cross-product axes are
+/// skipped, so the cover is conservative). A polygon with no area is covered through its edges.
+pub(crate) fn polygon(
+    verts: &[[f64; 3]],
+    r: f64,
+    clip: &CellBox,
+    limit: u64,
+    scratch: &mut Vec<[i64; 3]>,
+    emit: &mut impl FnMut([i64; 3]),
+) -> Result<u64, OverLimit> {
+    let n = verts.len();
+    let mut normal = [0.0; 3];
+    for k in 1..n.saturating_sub(1) {
+        let c = cross(sub(verts[k], verts[0]), sub(verts[k + 1], verts[0]));
+        normal = [normal[0] + c[0], normal[1] + c[1], normal[2] + c[2]];
+    }
+    let scale = verts
+        .iter()
+        .flat_map(|v| v.iter())
+        .fold(1.0f64, |m, v| m.max(v.abs()));
+    let area2 = dot(normal, normal).sqrt();
+    if area2 <= 1e-12 * scale * scale {
+        // Degenerate: a segment or a point. Cover every edge, then sort and deduplicate.
+        scratch.clear();
+        for k in 0..n {
+            let (p, q) = (verts[k], verts[(k + 1) % n]);
+            segment(p, q, r, clip, limit, &mut |c| scratch.push(c))?;
+        }
+        scratch.sort_unstable();
+        scratch.dedup();
+        if scratch.len() as u64 > limit {
+            return Err(OverLimit);
+        }
+        for &c in scratch.iter() {
+            emit(c);
+        }
+        return Ok(scratch.len() as u64);
+    }
+    // Axes: plane normal, then in-plane edge normals.
+    let mut axes: [[f64; 3]; 5] = [[0.0; 3]; 5];
+    let mut ranges: [(f64, f64); 5] = [(0.0, 0.0); 5];
+    axes[0] = normal;
+    let n_axes = 1 + n.min(4);
+    for k in 0..n.min(4) {
+        axes[1 + k] = cross(normal, sub(verts[(k + 1) % n], verts[k]));
+    }
+    for a in 0..n_axes {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for v in verts {
+            let p = dot(axes[a], *v);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        ranges[a] = (lo, hi);
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for v in verts {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    let mut cl = [0i64; 3];
+    let mut ch = [0i64; 3];
+    for k in 0..3 {
+        cl[k] = floor_i(lo[k] - r).max(clip.lo[k]);
+        ch[k] = floor_i(hi[k] + r).min(clip.hi[k]);
+    }
+    let half = 0.5 + r;
+    let mut count = 0u64;
+    for i in cl[0]..=ch[0] {
+        for j in cl[1]..=ch[1] {
+            for k in cl[2]..=ch[2] {
+                let c = [i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5];
+                let inside = (0..n_axes).all(|a| {
+                    let ax = axes[a];
+                    let m = dot(ax, c);
+                    let e = half * (ax[0].abs() + ax[1].abs() + ax[2].abs());
+                    let slack = 1e-9 * (e + m.abs() + 1.0);
+                    m + e + slack >= ranges[a].0 && m - e - slack <= ranges[a].1
+                });
+                if inside {
+                    count += 1;
+                    if count > limit {
+                        return Err(OverLimit);
+                    }
+                    emit([i, j, k]);
+                }
+            }
+        }
+    }
+    Ok(count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diagonal_segment_covers_far_fewer_cells_than_its_box() {
+        let mut cells = Vec::new();
+        segment(
+            [0.5; 3],
+            [20.5; 3],
+            0.05,
+            &CellBox::ALL,
+            u64::MAX,
+            &mut |c| cells.push(c),
+        )
+        .unwrap();
+        assert!(cells.len() < 200, "{}", cells.len());
+        assert!(cells.windows(2).all(|w| w[0] < w[1]));
+        assert!(cells.contains(&[0, 0, 0]) && cells.contains(&[20, 20, 20]));
+    }
+
+    #[test]
+    fn limit_stops_a_huge_walk() {
+        let r = segment(
+            [0.0; 3],
+            [1e6, 0.0, 0.0],
+            100.0,
+            &CellBox::ALL,
+            1000,
+            &mut |_| {},
+        );
+        assert_eq!(r, Err(OverLimit));
+    }
+}

@@ -1,0 +1,760 @@
+//! The sparse uniform grid of hair sections (Ward & Lin 2003 §5.3; salon paper §4.3.1), rebuilt
+//! every step by a parallel counting sort of (cell, section) entries.
+
+use rayon::prelude::*;
+
+use crate::cell_key::{CellKey, LATTICE_HALF};
+use crate::cover::{self, CellBox};
+use crate::{GridError, Point, Real, Ssv};
+
+/// Sections per cover chunk: the unit of parallel work when inserting, fixed so that the output
+/// does not depend on the number of threads.
+pub(crate) const CHUNK: usize = 1024;
+
+/// Slack added to every cover and bounding box, in cells, against rounding.
+pub(crate) const EPS_CELLS: f64 = 1e-3;
+
+/// One hair section to insert: which skeleton and segment it belongs to, and its swept sphere
+/// volume (an LSS for strand groups and clusters, an RSS for strips).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Section {
+    /// Skeleton (strand) the section belongs to.
+    pub skeleton: u32,
+    /// Index of the segment along its skeleton, from the root.
+    pub segment: u32,
+    /// The section's volume.
+    pub shape: Ssv,
+}
+
+/// How the grid is built and which pairs it reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridConfig {
+    /// Cell edge length in metres; `None` uses the mean core length of the inserted sections
+    /// (Ward & Lin §5.3; the longer extent for an RSS, 0 for a PSS), recomputed at each rebuild.
+    pub cell_size: Option<Real>,
+    /// Two sections closer than this (metres, signed SSV distance) count as a pair. Sections are
+    /// inserted grown by half of it. Default 0: only overlapping sections.
+    pub margin: Real,
+    /// Pairs of sections on the same skeleton whose segment indices differ by at most this are not
+    /// reported (they touch at their shared node). 0 reports them all. Default 1.
+    pub skip_neighbours: u32,
+    /// Largest number of cells one section may cover; more gives [`GridError::TooManyCells`]
+    /// (a guard against a huge radius or a tiny cell size). Default 2^16.
+    pub max_cells_per_item: u32,
+    /// Largest number of cells an influence volume or a body triangle may cover; more gives
+    /// [`GridError::TooManyCells`]. Influence volumes are clipped to the cells around the hair
+    /// first. Default 2^24.
+    pub max_cells_per_volume: u64,
+}
+
+impl Default for GridConfig {
+    fn default() -> Self {
+        Self {
+            cell_size: None,
+            margin: 0.0,
+            skip_neighbours: 1,
+            max_cells_per_item: 1 << 16,
+            max_cells_per_volume: 1 << 24,
+        }
+    }
+}
+
+/// Per-section record used by the pair search: the bounding box grown by half the margin and the
+/// rounding slack, and the ids.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Rec {
+    pub aabb: [Real; 6],
+    pub skeleton: u32,
+    pub segment: u32,
+}
+
+/// One chunk of sections: their data and their covers, item-major (the packed cell keys of each
+/// section, ascending).
+#[derive(Debug, Default)]
+pub(crate) struct CoverChunk {
+    pub shapes: Vec<Ssv>,
+    pub recs: Vec<Rec>,
+    pub keys: Vec<u64>,
+    pub start: Vec<u32>,
+    scratch: Vec<[i64; 3]>,
+    error: Option<GridError>,
+    lo: [i64; 3],
+    hi: [i64; 3],
+}
+
+/// The localization grid: a caller-owned, reusable structure that is cleared and refilled by
+/// [`Grid::rebuild`] each step (no allocation once its buffers have grown to the scene).
+///
+/// Sections are numbered by their position in the slice given to `rebuild`. Cells are listed in
+/// increasing [`CellKey`] order, and the sections of a cell in increasing index order, for any
+/// number of threads.
+#[derive(Debug)]
+pub struct Grid {
+    pub(crate) config: GridConfig,
+    pub(crate) cell_size: Real,
+    pub(crate) inv: f64,
+    len: usize,
+    /// Lowest cell of the box of all covers.
+    pub(crate) origin: [i64; 3],
+    /// Cells of that box along each axis (0 when empty).
+    pub(crate) dims: [u64; 3],
+    pub(crate) chunks: Vec<CoverChunk>,
+    pub(crate) n_chunks: usize,
+    entries: usize,
+    /// Dense path: after the scatter, `prefix[k]` is the end of box cell `k` in `sorted_items`.
+    dense: bool,
+    prefix: Vec<u32>,
+    pub(crate) sorted_items: Vec<u32>,
+    /// Packed keys of the non-empty cells, ascending.
+    pub(crate) cell_keys: Vec<u64>,
+    pub(crate) cell_start: Vec<u32>,
+    tmp: Vec<(u64, u32)>,
+}
+
+impl Default for Grid {
+    fn default() -> Self {
+        Self::new(GridConfig::default())
+    }
+}
+
+/// The first bad field of a shape, if any.
+fn invalid_field(shape: &Ssv) -> Option<&'static str> {
+    let fp = |p: &Point| p.x.is_finite() && p.y.is_finite() && p.z.is_finite();
+    let r = shape.radius();
+    if !(r.is_finite() && r >= 0.0) {
+        return Some("radius");
+    }
+    match shape {
+        Ssv::Point(p) => (!fp(&p.center)).then_some("center"),
+        Ssv::Line(l) => {
+            if !fp(&l.a) {
+                Some("a")
+            } else if !fp(&l.b) {
+                Some("b")
+            } else {
+                None
+            }
+        }
+        Ssv::Rect(q) => {
+            if !fp(&q.origin) {
+                Some("origin")
+            } else if !q.axes.iter().all(|a| a.iter().all(|v| v.is_finite())) {
+                Some("axes")
+            } else if !q.extents.iter().all(|e| e.is_finite() && *e >= 0.0) {
+                Some("extents")
+            } else if !q.corners().iter().all(fp) {
+                Some("origin")
+            } else {
+                None
+            }
+        }
+    }
+}
+
+/// Core length used for the default cell size.
+fn core_length(shape: &Ssv) -> f64 {
+    match shape {
+        Ssv::Point(_) => 0.0,
+        Ssv::Line(l) => f64::from((l.b - l.a).norm()),
+        Ssv::Rect(q) => f64::from(q.extents[0].max(q.extents[1])),
+    }
+}
+
+#[inline]
+pub(crate) fn cells_of(p: &Point, inv: f64) -> [f64; 3] {
+    [
+        f64::from(p.x) * inv,
+        f64::from(p.y) * inv,
+        f64::from(p.z) * inv,
+    ]
+}
+
+/// The core of a shape in cell units (1, 2 or 4 vertices) and the cover half-side in cells.
+#[inline]
+pub(crate) fn core_in_cells(shape: &Ssv, inv: f64, grow: f64) -> ([[f64; 3]; 4], usize, f64) {
+    let r = (f64::from(shape.radius()) + grow) * inv + EPS_CELLS;
+    let mut v = [[0.0; 3]; 4];
+    match shape {
+        Ssv::Point(p) => {
+            v[0] = cells_of(&p.center, inv);
+            (v, 1, r)
+        }
+        Ssv::Line(l) => {
+            v[0] = cells_of(&l.a, inv);
+            v[1] = cells_of(&l.b, inv);
+            (v, 2, r)
+        }
+        Ssv::Rect(q) => {
+            for (k, c) in q.corners().iter().enumerate() {
+                v[k] = cells_of(c, inv);
+            }
+            (v, 4, r)
+        }
+    }
+}
+
+/// Inclusive cell range of a core grown by `r` cells (the same expression the walks use).
+#[inline]
+pub(crate) fn cell_range(v: &[[f64; 3]], r: f64) -> ([i64; 3], [i64; 3]) {
+    let mut lo = [i64::MAX; 3];
+    let mut hi = [i64::MIN; 3];
+    for k in 0..3 {
+        let mn = v.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min);
+        let mx = v.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max);
+        lo[k] = cover::floor_i(mn - r);
+        hi[k] = cover::floor_i(mx + r);
+    }
+    (lo, hi)
+}
+
+/// Emits the cover of a core (1, 2 or 4 vertices) in increasing cell order.
+pub(crate) fn walk_core(
+    v: &[[f64; 3]],
+    r: f64,
+    clip: &CellBox,
+    limit: u64,
+    scratch: &mut Vec<[i64; 3]>,
+    emit: &mut impl FnMut([i64; 3]),
+) -> Result<u64, cover::OverLimit> {
+    match v.len() {
+        1 => cover::segment(v[0], v[0], r, clip, limit, emit),
+        2 => cover::segment(v[0], v[1], r, clip, limit, emit),
+        _ => cover::polygon(v, r, clip, limit, scratch, emit),
+    }
+}
+
+const AXES: [char; 3] = ['x', 'y', 'z'];
+const MASK21: u64 = (1 << 21) - 1;
+
+/// Dense index in the box `(biased origin, dims)` of a packed key inside it.
+#[inline]
+fn dense_of(k: u64, bo: [u64; 3], dims: [u64; 3]) -> u64 {
+    (((k >> 42) - bo[0]) * dims[1] + (((k >> 21) & MASK21) - bo[1])) * dims[2]
+        + ((k & MASK21) - bo[2])
+}
+
+#[inline]
+fn pack_i64(c: [i64; 3]) -> u64 {
+    let b = |v: i64| (v + LATTICE_HALF) as u64;
+    (b(c[0]) << 42) | (b(c[1]) << 21) | b(c[2])
+}
+
+impl Grid {
+    /// An empty grid with the given configuration.
+    pub fn new(config: GridConfig) -> Self {
+        Self {
+            config,
+            cell_size: 0.0,
+            inv: 0.0,
+            len: 0,
+            origin: [0; 3],
+            dims: [0; 3],
+            chunks: Vec::new(),
+            n_chunks: 0,
+            entries: 0,
+            dense: false,
+            prefix: Vec::new(),
+            sorted_items: Vec::new(),
+            cell_keys: Vec::new(),
+            cell_start: vec![0],
+            tmp: Vec::new(),
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &GridConfig {
+        &self.config
+    }
+
+    /// Replaces the configuration; takes effect at the next [`Grid::rebuild`].
+    pub fn set_config(&mut self, config: GridConfig) {
+        self.config = config;
+    }
+
+    /// Cell edge length of the last rebuild, in metres (0 before the first).
+    pub fn cell_size(&self) -> Real {
+        self.cell_size
+    }
+
+    /// Number of sections inserted by the last rebuild.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the grid holds no section.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Number of non-empty cells.
+    pub fn cell_count(&self) -> usize {
+        self.cell_keys.len()
+    }
+
+    /// Number of (cell, section) entries: the sum over sections of the cells each covers.
+    pub fn entry_count(&self) -> usize {
+        self.entries
+    }
+
+    #[inline]
+    pub(crate) fn rec(&self, i: usize) -> &Rec {
+        &self.chunks[i / CHUNK].recs[i % CHUNK]
+    }
+
+    #[inline]
+    pub(crate) fn shape_at(&self, i: usize) -> &Ssv {
+        &self.chunks[i / CHUNK].shapes[i % CHUNK]
+    }
+
+    /// The volume of section `i`.
+    pub fn shape(&self, i: usize) -> Option<&Ssv> {
+        (i < self.len).then(|| self.shape_at(i))
+    }
+
+    /// Skeleton id of section `i`.
+    pub fn skeleton(&self, i: usize) -> Option<u32> {
+        (i < self.len).then(|| self.rec(i).skeleton)
+    }
+
+    /// Segment id of section `i`.
+    pub fn segment(&self, i: usize) -> Option<u32> {
+        (i < self.len).then(|| self.rec(i).segment)
+    }
+
+    /// Bounding box `(min, max)` of section `i` as the grid uses it: grown by half the margin and
+    /// a rounding slack of 0.001 cell.
+    pub fn aabb(&self, i: usize) -> Option<(Point, Point)> {
+        (i < self.len).then(|| {
+            let b = self.rec(i).aabb;
+            (Point::new(b[0], b[1], b[2]), Point::new(b[3], b[4], b[5]))
+        })
+    }
+
+    /// The box of cells holding sections.
+    pub(crate) fn cell_box(&self) -> CellBox {
+        let mut hi = [0i64; 3];
+        for (k, h) in hi.iter_mut().enumerate() {
+            *h = self.origin[k] + self.dims[k] as i64 - 1;
+        }
+        CellBox {
+            lo: self.origin,
+            hi,
+        }
+    }
+
+    /// Key of the `c`-th non-empty cell.
+    pub fn cell_key(&self, c: usize) -> Option<CellKey> {
+        self.cell_keys.get(c).map(|&k| CellKey::unpack(k))
+    }
+
+    /// Sections in the `c`-th non-empty cell, ascending.
+    pub fn cell_sections_at(&self, c: usize) -> &[u32] {
+        if c + 1 >= self.cell_start.len() {
+            return &[];
+        }
+        &self.sorted_items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    }
+
+    /// The non-empty cells with their sections, in increasing key order.
+    pub fn cells(&self) -> impl ExactSizeIterator<Item = (CellKey, &[u32])> + '_ {
+        (0..self.cell_keys.len())
+            .map(|c| (CellKey::unpack(self.cell_keys[c]), self.cell_sections_at(c)))
+    }
+
+    /// Range in `sorted_items` of the cell `c` (lattice coordinates).
+    #[inline]
+    pub(crate) fn range_of(&self, c: [i64; 3]) -> std::ops::Range<usize> {
+        let mut d = 0u64;
+        for k in 0..3 {
+            let o = c[k] - self.origin[k];
+            if o < 0 || o as u64 >= self.dims[k] {
+                return 0..0;
+            }
+            d = d * self.dims[k] + o as u64;
+        }
+        if self.dense {
+            let d = d as usize;
+            let s = if d == 0 {
+                0
+            } else {
+                self.prefix[d - 1] as usize
+            };
+            s..self.prefix[d] as usize
+        } else {
+            match self.cell_keys.binary_search(&pack_i64(c)) {
+                Ok(i) => self.cell_start[i] as usize..self.cell_start[i + 1] as usize,
+                Err(_) => 0..0,
+            }
+        }
+    }
+
+    /// Index among the non-empty cells of cell `c` (lattice coordinates).
+    pub(crate) fn cell_index(&self, c: [i64; 3]) -> Option<usize> {
+        let inside =
+            (0..3).all(|k| c[k] >= self.origin[k] && c[k] - self.origin[k] < self.dims[k] as i64);
+        if !inside {
+            return None;
+        }
+        self.cell_keys.binary_search(&pack_i64(c)).ok()
+    }
+
+    /// Sections in cell `key`, ascending (empty when the cell holds none).
+    pub fn cell_sections(&self, key: CellKey) -> &[u32] {
+        let c = [i64::from(key.x), i64::from(key.y), i64::from(key.z)];
+        &self.sorted_items[self.range_of(c)]
+    }
+
+    /// Packed keys of the cells section `i` covers, ascending.
+    #[inline]
+    pub(crate) fn item_keys(&self, i: usize) -> &[u64] {
+        let ch = &self.chunks[i / CHUNK];
+        let l = i % CHUNK;
+        &ch.keys[ch.start[l] as usize..ch.start[l + 1] as usize]
+    }
+
+    /// The cells section `i` covers, in increasing key order (empty for an unknown index).
+    pub fn section_cells(&self, i: usize) -> impl Iterator<Item = CellKey> + '_ {
+        let keys = if i < self.len { self.item_keys(i) } else { &[] };
+        keys.iter().map(|&k| CellKey::unpack(k))
+    }
+
+    /// Clears the grid and inserts `sections`: validates them, picks the cell size, covers each
+    /// section's core grown by its radius (and half the margin), and sorts the entries by cell.
+    /// O(n) and parallel; the result is the same for any number of threads.
+    ///
+    /// # Errors
+    /// [`GridError::InvalidShape`] for a non-finite coordinate or a bad radius,
+    /// [`GridError::NonPositiveCellSize`], [`GridError::InvalidMargin`],
+    /// [`GridError::TooManyCells`] when one section covers more than
+    /// `max_cells_per_item` cells, and [`GridError::OutsideLattice`]. The first bad section (by
+    /// index) is reported. On error the grid is left empty.
+    pub fn rebuild(&mut self, sections: &[Section]) -> Result<(), GridError> {
+        let result = self.rebuild_inner(sections);
+        if result.is_err() {
+            self.clear();
+        }
+        result
+    }
+
+    /// Empties the grid, keeping its buffers.
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.origin = [0; 3];
+        self.dims = [0; 3];
+        self.n_chunks = 0;
+        self.entries = 0;
+        self.dense = false;
+        self.prefix.clear();
+        self.sorted_items.clear();
+        self.cell_keys.clear();
+        self.cell_start.clear();
+        self.cell_start.push(0);
+    }
+
+    fn rebuild_inner(&mut self, sections: &[Section]) -> Result<(), GridError> {
+        self.clear();
+        let margin = self.config.margin;
+        if !(margin.is_finite() && margin >= 0.0) {
+            return Err(GridError::InvalidMargin { margin });
+        }
+        // Cell size. The mean is summed in integer nanometres so that it does not depend on how
+        // rayon splits the work.
+        let h = match self.config.cell_size {
+            Some(h) => {
+                if !(h.is_finite() && h > 0.0) {
+                    return Err(GridError::NonPositiveCellSize {
+                        cell_size: h,
+                        source_of: "GridConfig::cell_size",
+                    });
+                }
+                h
+            }
+            None => {
+                if sections.is_empty() {
+                    1.0
+                } else {
+                    let total: u64 = sections
+                        .par_iter()
+                        .map(|s| {
+                            let l = core_length(&s.shape);
+                            if l.is_finite() {
+                                (l.min(1e9) * 1e9).round() as u64
+                            } else {
+                                0
+                            }
+                        })
+                        .sum();
+                    let mean = (total as f64 * 1e-9 / sections.len() as f64) as Real;
+                    if !(mean.is_finite() && mean > 0.0) {
+                        // A bad shape explains it better than the mean does.
+                        if let Some(index) = sections
+                            .par_iter()
+                            .position_first(|s| invalid_field(&s.shape).is_some())
+                        {
+                            let field = invalid_field(&sections[index].shape).unwrap_or("shape");
+                            return Err(GridError::InvalidShape {
+                                what: "section",
+                                index,
+                                field,
+                            });
+                        }
+                        return Err(GridError::NonPositiveCellSize {
+                            cell_size: mean,
+                            source_of: "mean segment length",
+                        });
+                    }
+                    mean
+                }
+            }
+        };
+        self.cell_size = h;
+        self.inv = 1.0 / f64::from(h);
+        let inv = self.inv;
+        let grow = f64::from(margin) * 0.5;
+        let slack = (grow + EPS_CELLS * f64::from(h)) as Real;
+        self.len = sections.len();
+        if sections.is_empty() {
+            return Ok(());
+        }
+
+        // One pass per chunk: validate, copy, box, cover (packed global keys).
+        let n_chunks = sections.len().div_ceil(CHUNK);
+        if self.chunks.len() < n_chunks {
+            self.chunks.resize_with(n_chunks, CoverChunk::default);
+        }
+        self.n_chunks = n_chunks;
+        let limit = u64::from(self.config.max_cells_per_item);
+        let clip = CellBox::ALL;
+        self.chunks[..n_chunks]
+            .par_iter_mut()
+            .zip(sections.par_chunks(CHUNK))
+            .enumerate()
+            .for_each(|(ci, (chunk, secs))| {
+                let CoverChunk {
+                    shapes,
+                    recs,
+                    keys,
+                    start,
+                    scratch,
+                    error,
+                    lo,
+                    hi,
+                } = chunk;
+                shapes.clear();
+                recs.clear();
+                keys.clear();
+                start.clear();
+                start.push(0);
+                *error = None;
+                *lo = [i64::MAX; 3];
+                *hi = [i64::MIN; 3];
+                for (l, s) in secs.iter().enumerate() {
+                    let index = ci * CHUNK + l;
+                    if error.is_some() {
+                        break;
+                    }
+                    if let Some(field) = invalid_field(&s.shape) {
+                        *error = Some(GridError::InvalidShape {
+                            what: "section",
+                            index,
+                            field,
+                        });
+                        break;
+                    }
+                    shapes.push(s.shape);
+                    let (a, b) = s.shape.aabb();
+                    recs.push(Rec {
+                        aabb: [
+                            a.x - slack,
+                            a.y - slack,
+                            a.z - slack,
+                            b.x + slack,
+                            b.y + slack,
+                            b.z + slack,
+                        ],
+                        skeleton: s.skeleton,
+                        segment: s.segment,
+                    });
+                    let (v, n, r) = core_in_cells(&s.shape, inv, grow);
+                    let (cl, ch) = cell_range(&v[..n], r);
+                    for k in 0..3 {
+                        for cell in [cl[k], ch[k]] {
+                            if !(-LATTICE_HALF..LATTICE_HALF).contains(&cell) && error.is_none() {
+                                *error = Some(GridError::OutsideLattice {
+                                    what: "section",
+                                    index,
+                                    axis: AXES[k],
+                                    cell,
+                                    limit: LATTICE_HALF,
+                                });
+                            }
+                        }
+                        lo[k] = lo[k].min(cl[k]);
+                        hi[k] = hi[k].max(ch[k]);
+                    }
+                    if error.is_some() {
+                        break;
+                    }
+                    let res = walk_core(&v[..n], r, &clip, limit, scratch, &mut |c| {
+                        keys.push(pack_i64(c));
+                    });
+                    if res.is_err() {
+                        *error = Some(GridError::TooManyCells {
+                            what: "section",
+                            index,
+                            limit,
+                            cell_size: h,
+                        });
+                        break;
+                    }
+                    start.push(keys.len() as u32);
+                }
+            });
+        if let Some(e) = self.chunks[..n_chunks].iter().find_map(|c| c.error.clone()) {
+            return Err(e);
+        }
+        let mut lo = [i64::MAX; 3];
+        let mut hi = [i64::MIN; 3];
+        for c in &self.chunks[..n_chunks] {
+            for k in 0..3 {
+                lo[k] = lo[k].min(c.lo[k]);
+                hi[k] = hi[k].max(c.hi[k]);
+            }
+        }
+        self.origin = lo;
+        for k in 0..3 {
+            self.dims[k] = (hi[k] - lo[k] + 1) as u64;
+        }
+        self.entries = self.chunks[..n_chunks].iter().map(|c| c.keys.len()).sum();
+        self.sort_entries();
+        Ok(())
+    }
+
+    /// Sorts the entries by cell: a parallel counting sort over the dense box of the covers when
+    /// it is not much larger than the number of entries, else a parallel comparison sort of
+    /// (cell, section).
+    fn sort_entries(&mut self) {
+        let entries = self.entries;
+        let box_cells = self.dims[0]
+            .checked_mul(self.dims[1])
+            .and_then(|v| v.checked_mul(self.dims[2]))
+            .unwrap_or(u64::MAX);
+        self.dense = box_cells <= (4 * entries as u64).max(1 << 16)
+            && box_cells < u64::from(u32::MAX)
+            && entries < u32::MAX as usize;
+        let chunks = &self.chunks[..self.n_chunks];
+        self.sorted_items.clear();
+        self.sorted_items.resize(entries, 0);
+        self.cell_keys.clear();
+        self.cell_start.clear();
+        self.cell_start.push(0);
+        let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
+        let dims = self.dims;
+        if self.dense {
+            let nb = box_cells as usize;
+            self.prefix.clear();
+            self.prefix.resize(nb, 0);
+            let parts = rayon::current_num_threads().clamp(1, 64);
+            let part = nb.div_ceil(parts).max(1);
+            // Histogram: each task owns a range of cells and scans every entry.
+            self.prefix
+                .par_chunks_mut(part)
+                .enumerate()
+                .for_each(|(t, counts)| {
+                    let lo = (t * part) as u64;
+                    let n = counts.len() as u64;
+                    for ch in chunks {
+                        for &k in &ch.keys {
+                            let d = dense_of(k, bo, dims).wrapping_sub(lo);
+                            if d < n {
+                                counts[d as usize] += 1;
+                            }
+                        }
+                    }
+                });
+            // Exclusive prefix: prefix[k] becomes the start of cell k.
+            let mut run = 0u32;
+            for p in self.prefix.iter_mut() {
+                let c = *p;
+                *p = run;
+                run += c;
+            }
+            // Scatter: each task owns a cell range and the matching slice of the output; its
+            // cursors are the prefix entries of its range, which end as the cells' ends.
+            let mut slices: Vec<&mut [u32]> = Vec::with_capacity(parts);
+            let mut rest: &mut [u32] = &mut self.sorted_items;
+            let mut taken = 0usize;
+            for t in 0..nb.div_ceil(part) {
+                let end = if (t + 1) * part >= nb {
+                    entries
+                } else {
+                    self.prefix[(t + 1) * part] as usize
+                };
+                let (a, b) = rest.split_at_mut(end - taken);
+                slices.push(a);
+                rest = b;
+                taken = end;
+            }
+            slices
+                .into_par_iter()
+                .zip(self.prefix.par_chunks_mut(part))
+                .enumerate()
+                .for_each(|(t, (out, cur))| {
+                    let lo = (t * part) as u64;
+                    let n = cur.len() as u64;
+                    let base = cur.first().copied().unwrap_or(0) as usize;
+                    for (ci, ch) in chunks.iter().enumerate() {
+                        let mut l = 0usize;
+                        for (e, &k) in ch.keys.iter().enumerate() {
+                            while ch.start[l + 1] as usize <= e {
+                                l += 1;
+                            }
+                            let d = dense_of(k, bo, dims).wrapping_sub(lo);
+                            if d < n {
+                                let c = &mut cur[d as usize];
+                                out[*c as usize - base] = (ci * CHUNK + l) as u32;
+                                *c += 1;
+                            }
+                        }
+                    }
+                });
+            // Non-empty cells.
+            let mut prev = 0u32;
+            for (d, &end) in self.prefix.iter().enumerate() {
+                if end > prev {
+                    let d = d as u64;
+                    let z = d % dims[2];
+                    let y = (d / dims[2]) % dims[1];
+                    let x = d / (dims[2] * dims[1]);
+                    self.cell_keys
+                        .push(((x + bo[0]) << 42) | ((y + bo[1]) << 21) | (z + bo[2]));
+                    self.cell_start.push(end);
+                    prev = end;
+                }
+            }
+        } else {
+            self.prefix.clear();
+            self.tmp.clear();
+            for (ci, ch) in chunks.iter().enumerate() {
+                for l in 0..ch.start.len() - 1 {
+                    let item = (ci * CHUNK + l) as u32;
+                    for &k in &ch.keys[ch.start[l] as usize..ch.start[l + 1] as usize] {
+                        self.tmp.push((k, item));
+                    }
+                }
+            }
+            self.tmp.par_sort_unstable();
+            for (e, &(k, item)) in self.tmp.iter().enumerate() {
+                self.sorted_items[e] = item;
+                if e > 0 && self.tmp[e - 1].0 != k {
+                    self.cell_keys.push(self.tmp[e - 1].0);
+                    self.cell_start.push(e as u32);
+                }
+            }
+            if let Some(&(k, _)) = self.tmp.last() {
+                self.cell_keys.push(k);
+                self.cell_start.push(entries as u32);
+            }
+        }
+    }
+}
