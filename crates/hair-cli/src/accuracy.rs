@@ -90,7 +90,8 @@ struct Elastica {
     reference_tip_y_over_l: f64,
     /// Distance between the tip and the elastica's tip, over the length.
     tip_error_over_l: f64,
-    /// Pseudo-transient Newton iterations the relaxation took; `null` if it did not converge.
+    /// Pseudo-transient Newton iterations over the whole load ramp; `null` if a stage did not
+    /// converge.
     iterations: Option<usize>,
 }
 
@@ -100,6 +101,7 @@ struct Report {
     strand: serde_json::Value,
     reference: serde_json::Value,
     integrators: Vec<IntegratorRuns>,
+    elastica_method: &'static str,
     elastica: Vec<Elastica>,
 }
 
@@ -186,6 +188,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "rms_tip_difference_to_double_dt_m": convergence,
             }),
             integrators: integrators.clone(),
+            elastica_method: "strand of n segments (n + 1 points, trapezoid-lumped masses, 2 EI/d on the root joint and EI/d elsewhere) clamped along +x, gravity -y, EI = rho g L^3 / alpha, rho = 0.02 kg/m, L = 0.25 m; static equilibrium in f64 by ReferenceStrand::relax (pseudo-transient Newton on the coupled implicit step, tolerance 1e-12 rad) with the load ramped through alpha = 1, 2, 5, 10, 20, 50, 100 (relaxing straight to alpha = 100 diverges); reference: elastica_tip (shooting); y downward",
             elastica: elastica.clone(),
         };
         strand_setup::write_json(path, &report)?;

@@ -37,6 +37,9 @@ pub struct Args {
     /// Joint stiffness (N m / rad).
     #[arg(long, default_value_t = 1e-4)]
     pub k: f64,
+    /// Measure only these integrators (by name, e.g. `implicit_angular`); all when not given.
+    #[arg(long)]
+    pub only: Vec<String>,
 }
 
 /// Throughput of one integrator.
@@ -68,7 +71,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .context("building a one-thread pool")?;
     let env = strand_setup::environment();
     let mut results = Vec::new();
+    for name in &args.only {
+        anyhow::ensure!(
+            Integrator::ALL.iter().any(|i| i.name() == name),
+            "unknown integrator `{name}` (expected one of {})",
+            Integrator::ALL.map(|i| i.name()).join(", ")
+        );
+    }
     for integrator in Integrator::ALL {
+        if !args.only.is_empty() && !args.only.iter().any(|n| n == integrator.name()) {
+            continue;
+        }
         let settings = StepSettings {
             dt: args.dt as Real,
             integrator,
