@@ -10,7 +10,7 @@ const LANES: usize = 8;
 
 #[inline(always)]
 fn clamp01(x: Real) -> Real {
-    x.max(0.0).min(1.0)
+    x.clamp(0.0, 1.0)
 }
 
 /// Signed distances of many LSS pairs: `out[i] = distance_lss_lss(&pairs[i].0, &pairs[i].1)` up

@@ -1,6 +1,6 @@
 //! Fitting swept sphere volumes around point and triangle sets: principal axes from the
 //! covariance, then the extents and radius that enclose every point (Ward & Lin 2003 §5.1, with
-//! the RSS fit of Larsen et al.'s SSV paper [15] as the model).
+//! the RSS fit of Larsen et al.'s SSV paper (Ward & Lin's reference 15) as the model).
 
 use nalgebra::{Matrix3, SymmetricEigen};
 

@@ -3,9 +3,14 @@
 //!
 //! | item | what it is |
 //! |---|---|
-//! | [`Pss`], [`Lss`], [`Rss`], [`Ssv`] | point, line and rectangle swept spheres |
-//! | [`Ssv::distance`], [`Ssv::contact`], `distance_*` | signed distance, contact between any two |
-//! | [`query`] | closest-point kernels: point, segment, rectangle, triangle |
+//! | [`Pss`], [`Lss`], [`Rss`], [`Ssv`] | point, line and rectangle swept spheres (`new`, `try_new`, `aabb`) |
+//! | [`Ssv::distance`], [`Ssv::closest_points`], [`Ssv::contact`] | signed distance, closest core points, contact between any two |
+//! | `distance_*`, [`distance_lss_lss_batch`] | the pairwise distances as free functions; eight-lane batched LSS pairs |
+//! | [`query`] | exact closest-point kernels: point, segment, rectangle, triangle |
+//! | [`fit_lss`], [`fit_rss`], [`fit_rss_triangles`] | tight volumes around point and triangle sets |
+//! | [`Bvh`] | RSS hierarchy over a triangle mesh: closest triangle, contacts within a margin, rayon batches, ray casts |
+//! | [`CylinderMap`], [`SphereMap`], [`Body`] | Kurihara's collision tables: bilinear lookup, inside test, nearest surface point |
+//! | [`SsvError`] | the one error type |
 //!
 //! ```
 //! use hair_ssv::{Lss, Point, Ssv};
@@ -14,6 +19,17 @@
 //! assert!((a.distance(&b) - (-0.05)).abs() < 1e-6);
 //! let c = a.contact(&b).unwrap();
 //! assert!((c.depth - 0.05).abs() < 1e-6);
+//!
+//! // a BVH over a mesh: every triangle touching a hair segment
+//! use hair_ssv::{Bvh, Vector};
+//! let vertices = [Point::new(-1.0, 0.0, -1.0), Point::new(1.0, 0.0, -1.0), Point::new(0.0, 0.0, 1.0)];
+//! let bvh = Bvh::new(&vertices, &[[0, 2, 1]]).unwrap();
+//! let hair = Ssv::Line(Lss::new(Point::new(0.0, 0.005, 0.0), Point::new(0.1, 0.02, 0.0), 0.01));
+//! let mut contacts = Vec::new();
+//! bvh.contacts(&hair, 0.0, &mut contacts);
+//! assert_eq!(contacts.len(), 1);
+//! assert!((contacts[0].contact.depth - 0.005).abs() < 1e-6);
+//! assert!((contacts[0].contact.normal - (-Vector::y())).norm() < 1e-6); // push out along +y
 //! ```
 
 mod body;
