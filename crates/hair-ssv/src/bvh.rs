@@ -195,7 +195,7 @@ impl Bvh {
     pub fn closest(&self, ssv: &Ssv) -> Option<MeshClosest> {
         let mut best: Option<(u32, Closest)> = None;
         let mut best_d2 = Real::INFINITY;
-        let mut stack = [0u32; 64];
+        let mut stack = [0u32; 128];
         let mut sp = 1usize;
         while sp > 0 {
             sp -= 1;
@@ -274,7 +274,7 @@ impl Bvh {
         }
         let reach2 = reach * reach;
         let reach_plane = reach * (1.0 + 1e-5) + slack;
-        let mut stack = [0u32; 64];
+        let mut stack = [0u32; 128];
         let mut sp = 1usize;
         let mut overflow = false;
         while sp > 0 {
@@ -462,7 +462,12 @@ fn build(
     let key = |i: u32| centroids[i as usize].coords.dot(&axis);
     let mean = order.iter().map(|&i| key(i)).sum::<Real>() / order.len() as Real;
     let mut mid = partition(order, |i| key(i) < mean);
-    if mid == 0 || mid == order.len() {
+    // (also when the mean split is lopsided, which keeps the depth logarithmic)
+    if mid == 0
+        || mid == order.len()
+        || mid < order.len() / 8
+        || mid > order.len() - order.len() / 8
+    {
         mid = order.len() / 2;
         order.select_nth_unstable_by(mid, |&a, &b| key(a).total_cmp(&key(b)));
     }
