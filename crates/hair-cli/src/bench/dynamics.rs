@@ -3,9 +3,9 @@
 //!
 //! The skeletons are standard strands ([`crate::strand_setup`]) rooted on a grid, each released
 //! at 60 degrees from straight down in a seeded direction, with a moderate joint stiffness and a
-//! 1 ms step at which every integrator stays finite for the length of the measurement. Each
-//! measurement warms up, then times batches of steps of about a third of a second each and keeps
-//! the fastest batch (the machine is shared).
+//! 1 ms step at which every integrator stays finite for the length of the measurement. After a
+//! warm-up, rounds of timed batches visit every integrator in turn and the fastest batch of each is
+//! kept, so load from other processes on the shared machine falls on all integrators alike.
 
 use std::time::Instant;
 
@@ -28,8 +28,8 @@ pub struct Args {
     /// Number of skeletons (20 points each).
     #[arg(long, default_value_t = 10_000)]
     pub skeletons: usize,
-    /// Wall time of one timed batch (s); three batches are timed per measurement.
-    #[arg(long, default_value_t = 0.3)]
+    /// Wall time of one timed batch (s); four interleaved rounds of batches are timed.
+    #[arg(long, default_value_t = 0.25)]
     pub batch_seconds: f64,
     /// Time step (s).
     #[arg(long, default_value_t = 1e-3)]
@@ -70,7 +70,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .build()
         .context("building a one-thread pool")?;
     let env = strand_setup::environment();
-    let mut results = Vec::new();
     for name in &args.only {
         anyhow::ensure!(
             Integrator::ALL.iter().any(|i| i.name() == name),
@@ -78,31 +77,40 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Integrator::ALL.map(|i| i.name()).join(", ")
         );
     }
-    for integrator in Integrator::ALL {
-        if !args.only.is_empty() && !args.only.iter().any(|n| n == integrator.name()) {
-            continue;
-        }
-        let settings = StepSettings {
-            dt: args.dt as Real,
-            integrator,
-            torque: TorqueModel::Chain,
-            solver: LinearSolver::Hand,
-        };
-        let mut bad = 0;
-        let one_thread = single.install(|| measure(&args, &env, &settings, &mut bad))?;
-        let all_threads = measure(&args, &env, &settings, &mut bad)?;
-        results.push((
-            integrator,
-            Throughput {
-                one_thread,
-                all_threads,
-                non_finite_steps: bad,
+    let chosen: Vec<Integrator> = Integrator::ALL
+        .into_iter()
+        .filter(|i| args.only.is_empty() || args.only.iter().any(|n| n == i.name()))
+        .collect();
+    let mut benches = Vec::new();
+    for &integrator in &chosen {
+        benches.push(Bench {
+            settings: StepSettings {
+                dt: args.dt as Real,
+                integrator,
+                torque: TorqueModel::Chain,
+                solver: LinearSolver::Hand,
             },
-        ));
-        if !args.json {
-            eprintln!("measured {}", integrator.name());
-        }
+            state: build(args.skeletons, args.k)?,
+            batch: 1,
+            non_finite_steps: 0,
+        });
     }
+    let one_thread = single.install(|| measure_all(&args, &env, &mut benches))?;
+    let all_threads = measure_all(&args, &env, &mut benches)?;
+    let results: Vec<(Integrator, Throughput)> = benches
+        .iter()
+        .zip(one_thread.iter().zip(&all_threads))
+        .map(|(b, (&one_thread, &all_threads))| {
+            (
+                b.settings.integrator,
+                Throughput {
+                    one_thread,
+                    all_threads,
+                    non_finite_steps: b.non_finite_steps,
+                },
+            )
+        })
+        .collect();
     let rate = |i: Integrator| {
         results
             .iter()
@@ -146,7 +154,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "k_n_m_per_rad": args.k,
                 "torque": "chain",
                 "node_step": "one node of one skeleton advanced by one step; root nodes count",
-                "timing": "fastest of three batches of about batch_seconds each, after warm-up",
+                "timing": "after warm-up, four rounds each timing one batch of about batch_seconds of every integrator in turn; the fastest batch of each is kept",
             }),
         );
         println!(
@@ -222,41 +230,60 @@ fn build(count: usize, k: f64) -> anyhow::Result<StrandState> {
     Ok(state)
 }
 
-/// Node-steps per second of one integrator in the current rayon pool.
-fn measure(
-    args: &Args,
-    env: &Environment,
-    settings: &StepSettings,
-    bad: &mut usize,
-) -> anyhow::Result<f64> {
-    let mut state = build(args.skeletons, args.k)?;
-    let nodes = state.node_count() as f64;
-    let mut step = |state: &mut StrandState| -> anyhow::Result<()> {
-        match state.step(env, settings) {
+/// One integrator's state and settings during the measurement.
+struct Bench {
+    settings: StepSettings,
+    state: StrandState,
+    /// Steps per timed batch.
+    batch: usize,
+    non_finite_steps: usize,
+}
+
+impl Bench {
+    fn step(&mut self, env: &Environment) -> anyhow::Result<()> {
+        match self.state.step(env, &self.settings) {
             Ok(_) => Ok(()),
             Err(DynamicsError::NonFiniteState { .. }) => {
-                *bad += 1;
+                // The skeleton was restored; the step still cost a step.
+                self.non_finite_steps += 1;
                 Ok(())
             }
             Err(e) => Err(e).context("stepping the benchmark state"),
         }
-    };
-    // Warm-up: scratch buffers, caches, thread pool; and an estimate of the step's cost.
-    let clock = Instant::now();
-    let mut warm = 0;
-    while warm < 2 || clock.elapsed().as_secs_f64() < 0.1 {
-        step(&mut state)?;
-        warm += 1;
     }
-    let per_step = clock.elapsed().as_secs_f64() / f64::from(warm);
-    let batch = ((args.batch_seconds / per_step).ceil() as usize).max(1);
-    let mut best = f64::INFINITY;
-    for _ in 0..3 {
+}
+
+/// Rounds of timed batches: every round times one batch of every integrator in turn, so load
+/// from other processes on the shared machine falls on all of them alike.
+const ROUNDS: usize = 4;
+
+/// Node-steps per second of every integrator in the current rayon pool: warm-up, then the
+/// fastest batch of [`ROUNDS`] interleaved rounds.
+fn measure_all(args: &Args, env: &Environment, benches: &mut [Bench]) -> anyhow::Result<Vec<f64>> {
+    for b in benches.iter_mut() {
+        // Warm-up: scratch buffers, caches, thread pool; and an estimate of the step's cost.
         let clock = Instant::now();
-        for _ in 0..batch {
-            step(&mut state)?;
+        let mut warm = 0u32;
+        while warm < 2 || clock.elapsed().as_secs_f64() < 0.1 {
+            b.step(env)?;
+            warm += 1;
         }
-        best = best.min(clock.elapsed().as_secs_f64() / batch as f64);
+        let per_step = clock.elapsed().as_secs_f64() / f64::from(warm);
+        b.batch = ((args.batch_seconds / per_step).ceil() as usize).max(1);
     }
-    Ok(nodes / best)
+    let mut best = vec![f64::INFINITY; benches.len()];
+    for _ in 0..ROUNDS {
+        for (b, best) in benches.iter_mut().zip(best.iter_mut()) {
+            let clock = Instant::now();
+            for _ in 0..b.batch {
+                b.step(env)?;
+            }
+            *best = best.min(clock.elapsed().as_secs_f64() / b.batch as f64);
+        }
+    }
+    Ok(benches
+        .iter()
+        .zip(best)
+        .map(|(b, t)| b.state.node_count() as f64 / t)
+        .collect())
 }
