@@ -551,7 +551,7 @@ fn bench_cylinder_map(args: &Args, rng: &mut SplitMix, bvh: &Bvh) -> anyhow::Res
 
 /// Runs the suite.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut rng = SplitMix(0x5eed_55f);
+    let mut rng = SplitMix(0x05ee_d55f);
     let (vertices, triangles) = head_and_shoulders(args.resolution);
     let t0 = Instant::now();
     let bvh = Bvh::new(&vertices, &triangles)?;
