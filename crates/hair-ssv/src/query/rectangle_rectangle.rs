@@ -18,19 +18,19 @@ use crate::{Real, Rss};
 /// rectangles, unlucky guesses) the full enumeration below decides.
 #[inline]
 pub fn rectangle_rectangle(a: &Rss, b: &Rss) -> Closest {
-    if let Some(c) = rectangle_rectangle_fast(a, b) {
+    if let Some(c) = rectangle_rectangle_fast(a, b, 2) {
         return c;
     }
     rectangle_rectangle_full(a, b)
 }
 
 #[inline(always)]
-fn rectangle_rectangle_fast(a: &Rss, b: &Rss) -> Option<Closest> {
+fn rectangle_rectangle_fast(a: &Rss, b: &Rss, iterations: usize) -> Option<Closest> {
     let mut y = b.center();
     let (mut sa, mut ta) = rect_params(a, &y);
     let mut x = rect_point(a, sa, ta);
     let (mut sb, mut tb) = (0.0, 0.0);
-    for _ in 0..2 {
+    for _ in 0..iterations {
         (sb, tb) = rect_params(b, &x);
         y = rect_point(b, sb, tb);
         (sa, ta) = rect_params(a, &y);
@@ -97,6 +97,10 @@ fn rectangle_rectangle_full(a: &Rss, b: &Rss) -> Closest {
                 dist_sq: 0.0,
             };
         }
+    }
+    // separated: projections converge slowly for some angles; a longer run usually settles
+    if let Some(c) = rectangle_rectangle_fast(a, b, 10) {
+        return c;
     }
     let mut best = point_rectangle(&ca[0], b);
     for p in &ca[1..] {
