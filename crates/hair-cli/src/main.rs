@@ -7,6 +7,7 @@ mod accuracy;
 mod bench;
 mod chart;
 mod hierarchy;
+mod render_check;
 mod stability;
 mod strand_setup;
 
@@ -30,6 +31,8 @@ enum Command {
     Bench(bench::Args),
     /// Build the strip / cluster / strand-group hierarchy and report its size.
     Hierarchy(hierarchy::Args),
+    /// Render the procedural head on the GPU and the CPU reference and compare.
+    RenderCheck(render_check::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -39,6 +42,7 @@ fn main() -> std::process::ExitCode {
         Command::Accuracy(args) => accuracy::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Hierarchy(args) => hierarchy::run(args),
+        Command::RenderCheck(args) => render_check::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

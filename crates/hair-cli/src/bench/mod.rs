@@ -2,6 +2,7 @@
 
 mod dynamics;
 mod grid;
+mod render;
 mod ssv;
 
 /// Arguments of `hair bench`.
@@ -19,6 +20,8 @@ enum Suite {
     Ssv(ssv::Args),
     /// Localization-grid build and pair search against a parry3d BVH.
     Grid(grid::Args),
+    /// Hair rendering with 16 opacity shadow maps against the unshadowed frame.
+    Render(render::Args),
 }
 
 /// Runs the chosen suite.
@@ -27,5 +30,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Suite::Dynamics(a) => dynamics::run(a),
         Suite::Ssv(a) => ssv::run(a),
         Suite::Grid(a) => grid::run(a),
+        Suite::Render(a) => render::run(a),
     }
 }

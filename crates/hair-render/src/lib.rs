@@ -1,0 +1,124 @@
+//! # hair-render
+//!
+//! Interactive hair rendering after Ward, Galoppo & Lin's *Interactive Virtual Hair Salon* (§5):
+//! strands drawn as camera-facing ribbons, self-shadowed with 16 opacity shadow maps written in
+//! one pass into four `Rgba16Float` targets, and shaded with Kajiya-Kay diffuse plus two shifted
+//! specular highlights. Input is plain data, so any simulator can use it; a CPU reference of the
+//! same maths validates the GPU path and serves when there is no adapter.
+//!
+//! | item | what it is |
+//! |---|---|
+//! | [`RenderScene`], [`Camera`], [`Light`], [`BodyMesh`] | plain-data input |
+//! | [`Strand`], [`StrandGroup`], [`Cluster`], [`Strip`], [`StrandPoint`] | hair as polylines with per-point radius, colour and wetness; groups of strands, tubes, textured strips |
+//! | [`RenderSettings`], [`ShadowSettings`], [`ShadingParams`] | image size, subdivision, shadow and shading constants |
+//! | [`Renderer`] | GPU when an adapter exists, else the CPU reference; `render_to_image` |
+//! | [`GpuRenderer`] | wgpu: headless `render_to_image`, `render_to_view` for a window surface, `opacity_maps` |
+//! | [`CpuRenderer`] | the CPU reference (rayon): `render_to_image`, `opacity_maps` |
+//! | [`OpacityMaps`], [`OsmPlanes`], [`hat_weights`] | the 16 maps, their planes and the hat reconstruction |
+//! | [`mod@geometry`] | Catmull-Rom subdivision, strand groups, ribbon vertices |
+//! | [`mod@shading`] | the two-highlight hair model on the CPU |
+//! | [`compare`] | image statistics for GPU/CPU comparisons |
+//! | [`mod@test_scenes`] | a procedural head with hanging hair for tests, benches and demos |
+//!
+//! ```
+//! use hair_render::*;
+//!
+//! let mut scene = test_scenes::head_scene(200, 1);
+//! scene.background = [0.2, 0.2, 0.25];
+//! let settings = RenderSettings { width: 64, height: 64, ..RenderSettings::default() };
+//! let image = CpuRenderer.render_to_image(&scene, &settings)?;
+//! assert_eq!(image.dimensions(), (64, 64));
+//! // The head covers the centre; the corner shows the background.
+//! assert_eq!(image.get_pixel(0, 0).0, [51, 51, 64, 255]);
+//! # Ok::<(), RenderError>(())
+//! ```
+
+pub mod compare;
+mod cpu;
+mod error;
+mod frame;
+pub mod geometry;
+mod gpu;
+mod osm;
+mod scene;
+pub mod shading;
+pub mod test_scenes;
+
+pub use cpu::CpuRenderer;
+pub use error::RenderError;
+pub use frame::Globals;
+pub use gpu::{GpuRenderer, f16_to_f32, osm_shader_source, shade_shader_source};
+pub use image::{self, RgbaImage};
+pub use osm::{
+    LightFrame, OSM_MAPS, OpacityMaps, OsmPlanes, ShadowSettings, contributes, hat_weights,
+    opacity_at, round_f16,
+};
+pub use scene::{
+    BodyMesh, Camera, Cluster, Light, Point, Real, RenderScene, RenderSettings, Rgb, Strand,
+    StrandGroup, StrandPoint, Strip, Vector,
+};
+pub use shading::ShadingParams;
+pub use wgpu;
+
+/// A renderer: the GPU when an adapter exists, otherwise the CPU reference.
+#[derive(Debug)]
+pub enum Renderer {
+    /// wgpu on the adapter found.
+    Gpu(Box<GpuRenderer>),
+    /// The CPU reference.
+    Cpu(CpuRenderer),
+}
+
+impl Renderer {
+    /// The GPU renderer if an adapter and device can be had, otherwise the CPU reference.
+    pub fn new() -> Self {
+        match GpuRenderer::new() {
+            Ok(g) => Self::Gpu(Box::new(g)),
+            Err(_) => Self::Cpu(CpuRenderer),
+        }
+    }
+
+    /// The GPU renderer, or the error explaining why there is none.
+    pub fn gpu() -> Result<Self, RenderError> {
+        Ok(Self::Gpu(Box::new(GpuRenderer::new()?)))
+    }
+
+    /// Which path renders: `gpu: <adapter> (<backend>)` or `cpu reference`.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Gpu(g) => format!("gpu: {}", g.adapter_name()),
+            Self::Cpu(_) => "cpu reference".into(),
+        }
+    }
+
+    /// Renders a scene to an RGBA image.
+    pub fn render_to_image(
+        &self,
+        scene: &RenderScene,
+        settings: &RenderSettings,
+    ) -> Result<RgbaImage, RenderError> {
+        match self {
+            Self::Gpu(g) => g.render_to_image(scene, settings),
+            Self::Cpu(c) => c.render_to_image(scene, settings),
+        }
+    }
+}
+
+impl Default for Renderer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Writes an image as PNG, creating the parent directory.
+pub fn save_png(image: &RgbaImage, path: impl AsRef<std::path::Path>) -> Result<(), RenderError> {
+    let path = path.as_ref();
+    let err = |e: &dyn std::fmt::Display| RenderError::Image {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| err(&e))?;
+    }
+    image.save(path).map_err(|e| err(&e))
+}
