@@ -98,6 +98,22 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // Build plus exact pair search on the full scene at other cell sizes.
+    let sections = head_scene(300_000, 30, 1);
+    for cell in [0.005f32, 0.0075, 0.01] {
+        let mut grid = Grid::new(GridConfig {
+            cell_size: Some(cell),
+            ..GridConfig::default()
+        });
+        let mut pairs = PairSet::new();
+        group.bench_function(format!("build_and_pairs/cell_{cell}"), |b| {
+            b.iter(|| {
+                let _ = grid.rebuild(black_box(&sections));
+                grid.overlapping_pairs(&mut pairs);
+                black_box(pairs.len())
+            })
+        });
+    }
     group.finish();
 }
 

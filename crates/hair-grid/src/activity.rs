@@ -225,16 +225,20 @@ impl Activity {
             let old = (s < self.states.len() && self.states[s].key == key).then(|| self.states[s]);
             let mut max_speed: Real = 0.0;
             let mut max_force: Real = 0.0;
+            let mut nan = false;
             for &i in items {
                 let i = i as usize;
-                max_speed = max_speed.max(input.speeds[i]);
+                let v = input.speeds[i];
+                nan |= v.is_nan();
+                max_speed = max_speed.max(v);
                 if let Some(&f) = input.neighbour_forces.get(i) {
+                    nan |= f.is_nan();
                     max_force = max_force.max(f);
                 }
             }
             // A NaN speed or force counts as activity.
-            let moving = !(max_speed <= self.config.speed_threshold);
-            let pulled = !(max_force <= self.config.wake_force);
+            let moving = nan || max_speed > self.config.speed_threshold;
+            let pulled = nan || max_force > self.config.wake_force;
             let quiet = entering == 0 && leaving == 0 && !moving && !tool;
             let (state, quiet_for) = match old {
                 None => (CellState::Active, 0.0),

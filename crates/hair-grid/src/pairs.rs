@@ -3,8 +3,10 @@
 
 use rayon::prelude::*;
 
-use crate::Real;
+use hair_ssv::{Lss, distance_lss_lss_batch};
+
 use crate::grid::Grid;
+use crate::{Real, Ssv};
 
 /// Cells handled by one parallel task: fixed, so that the output order does not depend on the
 /// number of threads.
@@ -18,6 +20,49 @@ struct PairChunk {
     keys: Vec<u64>,
     key_start: Vec<u32>,
     order: Vec<u32>,
+    batch: Vec<(Lss, Lss)>,
+    batch_ids: Vec<[u32; 2]>,
+    dist: Vec<Real>,
+}
+
+/// LSS pairs tested at once by hair-ssv's batched kernel.
+const BATCH: usize = 256;
+
+/// Runs the exact test on the buffered LSS pairs. The batched kernel agrees with the scalar one
+/// up to rounding, so pairs within a rounding band of the margin are decided by the scalar
+/// kernel: the result is exactly [`Ssv::distance`]`<= margin`.
+fn flush(
+    grid: &Grid,
+    batch: &mut Vec<(Lss, Lss)>,
+    ids: &mut Vec<[u32; 2]>,
+    dist: &mut Vec<Real>,
+    pairs: &mut Vec<[u32; 2]>,
+    margin: Real,
+) {
+    dist.clear();
+    dist.resize(batch.len(), 0.0);
+    distance_lss_lss_batch(batch, dist);
+    for ((&d, &[i, j]), (p, q)) in dist.iter().zip(ids.iter()).zip(batch.iter()) {
+        let scale = [p.a, p.b, q.a, q.b]
+            .iter()
+            .flat_map(|v| v.iter())
+            .fold(1.0f32, |m, c| m.max(c.abs()));
+        let band = 1e-5 * scale;
+        let keep = if d > margin + band {
+            false
+        } else if d < margin - band {
+            true
+        } else {
+            grid.shape_at(i as usize)
+                .distance(grid.shape_at(j as usize))
+                <= margin
+        };
+        if keep {
+            pairs.push([i, j]);
+        }
+    }
+    batch.clear();
+    ids.clear();
 }
 
 /// A reusable set of section pairs `[i, j]` with `i < j`, filled by [`Grid::candidate_pairs`] or
@@ -123,7 +168,12 @@ impl Grid {
                     keys,
                     key_start,
                     order,
+                    batch,
+                    batch_ids,
+                    dist,
                 } = chunk;
+                batch.clear();
+                batch_ids.clear();
                 pairs.clear();
                 let c0 = t * CELLS_PER_TASK;
                 let c1 = (c0 + CELLS_PER_TASK).min(n_cells);
@@ -209,17 +259,29 @@ impl Grid {
                                 continue;
                             }
                             let (i, j) = (items[a].min(items[b]), items[a].max(items[b]));
-                            if exact
-                                && self
-                                    .shape_at(i as usize)
-                                    .distance(self.shape_at(j as usize))
-                                    > margin
-                            {
+                            if exact {
+                                match (self.shape_at(i as usize), self.shape_at(j as usize)) {
+                                    (Ssv::Line(p), Ssv::Line(q)) => {
+                                        batch.push((*p, *q));
+                                        batch_ids.push([i, j]);
+                                        if batch.len() == BATCH {
+                                            flush(self, batch, batch_ids, dist, pairs, margin);
+                                        }
+                                    }
+                                    (p, q) => {
+                                        if p.distance(q) <= margin {
+                                            pairs.push([i, j]);
+                                        }
+                                    }
+                                }
                                 continue;
                             }
                             pairs.push([i, j]);
                         }
                     }
+                }
+                if !batch.is_empty() {
+                    flush(self, batch, batch_ids, dist, pairs, margin);
                 }
             });
     }
