@@ -28,6 +28,9 @@ pub(crate) fn inherit_down(h: &Hierarchy, state: &mut LodState, parent: u32) {
         state.count[c as usize] = state.count[parent as usize];
     }
     // Bonds: one copy per child for each end on the parent.
+    if state.bonds.is_empty() {
+        return;
+    }
     let kids = h.children(parent);
     let mut moved = Vec::new();
     state.bonds.retain(|b| {
@@ -98,6 +101,9 @@ pub(crate) fn weighted_mean_into(h: &Hierarchy, field: &mut [Real], parent: u32)
 /// Orders each bond's ends, sorts, and folds duplicates (same two ends) into one with averaged
 /// parameters.
 pub(crate) fn normalise_bonds(bonds: &mut Vec<LodBond>) {
+    if bonds.is_empty() {
+        return;
+    }
     for b in bonds.iter_mut() {
         if b.b < b.a {
             core::mem::swap(&mut b.a, &mut b.b);
