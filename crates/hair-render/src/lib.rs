@@ -20,6 +20,24 @@
 //! | [`compare`] | image statistics for GPU/CPU comparisons |
 //! | [`mod@test_scenes`] | a procedural head with hanging hair for tests, benches and demos |
 //!
+//! ## Method notes
+//!
+//! - The light is directional; the maps are orthographic over the scene's bounds seen from it.
+//!   Plane `n` of 16 lies at `near + (n + 1) * spacing` with `spacing` the hair's depth extent
+//!   over 16, so every map holds information and the front of the hair (depth `near`) has
+//!   opacity zero; a fragment adds its opacity to the maps whose plane lies behind it.
+//! - Transmittance is `exp(-opacity)` (Kim & Neumann). A fibre narrower than a texel (or a
+//!   pixel) is drawn `min_width_px` wide with its opacity scaled by the width ratio, so thin hair
+//!   casts proportionally light shadows instead of being missed by the rasteriser.
+//! - §5.3's push-back is one plane spacing by default, so a lit fibre never samples its own
+//!   opacity; a single strand under the light is fully lit (tested).
+//! - The body's shadow map is the depth attachment of the same pass, read with a `LessEqual`
+//!   comparison sampler at texel centres (GLSL cannot `textureLoad` a depth texture); both maps
+//!   are filtered bilinearly by hand so the CPU reference computes exactly the same taps.
+//! - The CPU reference rasterises like GPUs do (pixel centres, 1/256-pixel vertex snapping,
+//!   top-left rule, perspective-correct varyings) and rounds opacity sums to 16-bit floats like
+//!   the `Rgba16Float` targets, so GPU and CPU images agree to a fraction of a level on average.
+//!
 //! ```
 //! use hair_render::*;
 //!
