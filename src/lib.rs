@@ -1,8 +1,44 @@
-//! `hair`: interactive, physically based hair.
+//! # hair
 //!
-//! The facade re-exports the layers as modules.
+//! Interactive, physically based hair: strands simulated at any level of detail, collided with
+//! bodies and with each other. The facade re-exports the layers and composes them into a
+//! per-step pipeline driven by scene files.
+//!
+//! | item | what it is |
+//! |---|---|
+//! | [`dynamics`], [`ssv`], [`grid`], [`lod`], [`io`] | the layers, re-exported |
+//! | [`Scene`], [`LoadedScene`] | serde scene data (`scenes/*.ron`, `docs/scene-format.md`) |
+//! | [`Simulation`], [`StepStats`] | the per-step pipeline and what each step cost |
+//! | [`BodyModel`] | the procedural head, a wrinkled torus or an OBJ, with its BVH |
+//!
+//! ```no_run
+//! use hair::{LodPolicy, Scene, Simulation};
+//!
+//! let scene = Scene::load("wind")?;
+//! let mut sim = Simulation::new(&scene, LodPolicy::Fine)?;
+//! for _ in 0..10 {
+//!     let stats = sim.step()?;
+//!     assert!(stats.max_penetration_m <= f64::from(scene.scene.collision.tolerance));
+//! }
+//! # Ok::<(), hair::HairError>(())
+//! ```
 
 pub use hair_dynamics as dynamics;
 pub use hair_grid as grid;
+pub use hair_io as io;
 pub use hair_lod as lod;
 pub use hair_ssv as ssv;
+
+mod body;
+pub mod drivers;
+mod error;
+pub mod hairstyle;
+mod render_geometry;
+pub mod scene;
+mod simulation;
+
+pub use body::{BodyModel, wrinkled_torus};
+pub use error::HairError;
+pub use render_geometry::RenderGeometry;
+pub use scene::{LoadedScene, LodPolicy, Scene};
+pub use simulation::{Simulation, StepStats};

@@ -6,8 +6,11 @@
 mod accuracy;
 mod bench;
 mod chart;
+mod convert;
 mod hierarchy;
 mod render_check;
+mod run;
+mod scenes;
 mod stability;
 mod strand_setup;
 
@@ -23,6 +26,12 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Simulate a scene: per-frame metrics and a summary.
+    Run(run::Args),
+    /// List the built-in scenes.
+    Scenes(scenes::Args),
+    /// Convert strands between .tfx and .hair.
+    Convert(convert::Args),
     /// Stability map of every integrator over stiffness x time step.
     Stability(stability::Args),
     /// Accuracy against cost of every integrator, and the elastica statics.
@@ -38,6 +47,9 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Run(args) => run::run(args),
+        Command::Scenes(args) => scenes::run(args),
+        Command::Convert(args) => convert::run(args),
         Command::Stability(args) => stability::run(args),
         Command::Accuracy(args) => accuracy::run(args),
         Command::Bench(args) => bench::run(args),

@@ -111,7 +111,10 @@ impl StrandState {
         Ok(())
     }
 
-    /// Applies velocity constraints and maps the node velocities back to angular velocities.
+    /// Applies velocity constraints: each constrained node's own joint loses the part of its rate
+    /// that drives the node into the surface (a projection of the joint's two rates, so it never
+    /// speeds a joint up and never adds energy), and friction slows what remains. Distal nodes
+    /// follow rigidly; node velocities are then recomputed from the rates.
     pub fn apply_velocity_constraints(
         &mut self,
         constraints: &[VelocityConstraint],
@@ -131,18 +134,78 @@ impl StrandState {
         touched.clear();
         for c in constraints {
             let i = c.node as usize;
-            let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
-            let v = self.velocities[i];
-            let vn = v.dot(&n);
-            if vn < 0.0 {
-                let mut vt = v - n * vn;
-                let speed = vt.norm();
-                if speed > 0.0 {
-                    vt *= (1.0 - c.friction.min(1.0) * (-vn) / speed).max(0.0);
+            let s = self.skeleton_of(i) as usize;
+            touched.push(s as u32);
+            let start = self.offsets[s] as usize;
+            if i == start {
+                // A root: only a free root moves, and it moves with its velocity.
+                if self.roots[s].free {
+                    let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
+                    let v = self.roots[s].velocity;
+                    let vn = v.dot(&n);
+                    if vn < 0.0 {
+                        self.roots[s].velocity = (v - n * vn) * (1.0 - c.friction.min(1.0));
+                    }
                 }
-                self.velocities[i] = vt;
+                continue;
             }
-            touched.push(self.skeleton_of(i));
+            let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
+            // World axes of the node's joint, from the parent's frame.
+            let mut rot = self.roots[s].rotation;
+            for k in start + 1..i {
+                rot *= Bend::new(self.theta[k], self.phi[k]).rotation;
+            }
+            let bend = Bend::new(self.theta[i], self.phi[i]);
+            let (ax, ay) = (rot * bend.axis_x, rot * bend.axis_y);
+            let r = self.positions[i] - self.positions[i - 1];
+            // Normal velocity of the node due to its own joint: g . w, g = (n . (ax x r), n . (ay x r)).
+            let (gx, gy) = (n.dot(&ax.cross(&r)), n.dot(&ay.cross(&r)));
+            let (wx, wy) = (self.omega_theta[i], self.omega_phi[i]);
+            let into = gx * wx + gy * wy;
+            let g2 = gx * gx + gy * gy;
+            if into < 0.0 && g2 > 0.0 {
+                let (px, py) = (wx - gx * into / g2, wy - gy * into / g2);
+                let removed = ((wx - px).powi(2) + (wy - py).powi(2)).sqrt();
+                let left = (px * px + py * py).sqrt();
+                let keep = if left > 0.0 {
+                    (1.0 - c.friction.min(1.0) * removed / left).max(0.0)
+                } else {
+                    0.0
+                };
+                self.omega_theta[i] = px * keep;
+                self.omega_phi[i] = py * keep;
+            }
+        }
+        touched.sort_unstable();
+        touched.dedup();
+        for &s in &touched {
+            self.refresh_positions(crate::SkeletonId(s));
+        }
+        self.touched_scratch = touched;
+        Ok(())
+    }
+
+    /// Sets node velocities (head frame) and maps them back to angular velocities, root to tip,
+    /// as [`StrandState::apply_velocity_constraints`] does.
+    pub fn apply_velocity_targets(
+        &mut self,
+        targets: &[(u32, Vector)],
+    ) -> Result<(), DynamicsError> {
+        let count = self.theta.len();
+        for (node, v) in targets {
+            if *node as usize >= count {
+                return Err(DynamicsError::UnknownNode {
+                    node: *node as usize,
+                    count,
+                });
+            }
+            crate::error::finite_vec("velocity target", v)?;
+        }
+        let mut touched = std::mem::take(&mut self.touched_scratch);
+        touched.clear();
+        for (node, v) in targets {
+            self.velocities[*node as usize] = *v;
+            touched.push(self.skeleton_of(*node as usize));
         }
         touched.sort_unstable();
         touched.dedup();
@@ -176,14 +239,19 @@ impl StrandState {
             let b = self.velocities[i] - v_prev - omega.cross(&r);
             let c1 = ax.cross(&r);
             let c2 = ay.cross(&r);
+            // Least squares for the change from the current rates, regularised so a joint whose
+            // axis lines up with its segment (a 90 degree bend) is not asked for infinite rates.
+            let (w0x, w0y) = (self.omega_theta[i], self.omega_phi[i]);
+            let b = b - c1 * w0x - c2 * w0y;
             let (a11, a12, a22) = (c1.dot(&c1), c1.dot(&c2), c2.dot(&c2));
+            let lambda = 1e-3 * (a11 + a22) + 1e-30;
+            let (a11, a22) = (a11 + lambda, a22 + lambda);
             let (b1, b2) = (c1.dot(&b), c2.dot(&b));
             let det = a11 * a22 - a12 * a12;
-            let (wx, wy) = if det.abs() > 1e-30 {
-                ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det)
-            } else {
-                (self.omega_theta[i], self.omega_phi[i])
-            };
+            let (wx, wy) = (
+                w0x + (a22 * b1 - a12 * b2) / det,
+                w0y + (a11 * b2 - a12 * b1) / det,
+            );
             self.omega_theta[i] = wx;
             self.omega_phi[i] = wy;
             omega += ax * wx + ay * wy;

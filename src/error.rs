@@ -1,0 +1,57 @@
+//! The facade's error type: every failure names the file, line and field where it can.
+
+use thiserror::Error;
+
+/// Everything that can go wrong loading a scene or running a simulation.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum HairError {
+    /// A scene file could not be parsed or has an unknown field.
+    #[error("{file}:{line}:{column}: {message}")]
+    SceneSyntax {
+        /// The scene file (or built-in name).
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// The parser's message.
+        message: String,
+    },
+    /// A scene value is out of range or non-finite.
+    #[error("{file}: field `{field}`: {message}")]
+    SceneValue {
+        /// The scene file (or built-in name).
+        file: String,
+        /// Dotted path of the field.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// No built-in scene has this name and no such file exists.
+    #[error("no built-in scene or file named `{0}` (built-ins: {1})")]
+    UnknownScene(String, String),
+    /// Reading a file failed.
+    #[error("{file}: {message}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The system's message.
+        message: String,
+    },
+    /// A hair or body file was malformed.
+    #[error(transparent)]
+    Format(#[from] hair_io::IoError),
+    /// The dynamics layer rejected a value or a state went non-finite.
+    #[error("dynamics: {0}")]
+    Dynamics(#[from] hair_dynamics::DynamicsError),
+    /// The collision layer rejected a mesh.
+    #[error("collision: {0}")]
+    Ssv(#[from] hair_ssv::SsvError),
+    /// The scene asks for something the pipeline does not do yet.
+    #[error("not supported yet: {0}")]
+    Unsupported(String),
+    /// The grid rejected its input.
+    #[error("grid: {0}")]
+    Grid(#[from] hair_grid::GridError),
+}

@@ -1,0 +1,90 @@
+//! Render geometry: every rendered strand follows the skeleton that represents it, at its fixed
+//! offset in that skeleton's local frame, subdivided into a smooth Catmull-Rom curve.
+//!
+//! Ward & Lin §3: skeletons are the simulation's base curves; strands, clusters and strips are
+//! built around them for rendering only.
+
+use hair_ssv::{Point, Real};
+use nalgebra::Matrix3;
+
+/// Rendered strands around skeletons, with their output polylines (world frame).
+#[derive(Clone, Debug, Default)]
+pub struct RenderGeometry {
+    /// Subdivisions per skeleton segment (1 = the control points themselves).
+    pub subdivisions: usize,
+    /// Output: strand `s` occupies `positions[offsets[s]..offsets[s + 1]]`.
+    pub offsets: Vec<u32>,
+    /// Output positions (m, world).
+    pub positions: Vec<Point>,
+}
+
+/// Parallel-transport frames along a polyline, starting from `first`.
+pub(crate) fn transport_frames(
+    points: &[Point],
+    first: &Matrix3<Real>,
+    out: &mut Vec<Matrix3<Real>>,
+) {
+    out.clear();
+    let mut frame = *first;
+    for k in 0..points.len() {
+        if k > 0 {
+            // The same minimal rotation between tangents as the strand kinematics uses.
+            if let Some(t) = (points[k] - points[k - 1]).try_normalize(1e-12) {
+                let (x, y) = hair_dynamics::bend_between(&(frame.transpose() * t));
+                frame *= hair_dynamics::Bend::new(x, y).rotation;
+            }
+        }
+        out.push(frame);
+    }
+}
+
+/// Catmull-Rom through `control` with `sub` points per segment, into `out` (appended).
+pub(crate) fn catmull_rom(control: &[Point], sub: usize, out: &mut Vec<Point>) {
+    let n = control.len();
+    if n < 2 || sub <= 1 {
+        out.extend_from_slice(control);
+        return;
+    }
+    for i in 0..n - 1 {
+        let p0 = if i == 0 {
+            control[0] + (control[0] - control[1])
+        } else {
+            control[i - 1]
+        };
+        let p1 = control[i];
+        let p2 = control[i + 1];
+        let p3 = if i + 2 < n {
+            control[i + 2]
+        } else {
+            p2 + (p2 - p1)
+        };
+        for k in 0..sub {
+            let t = k as Real / sub as Real;
+            let t2 = t * t;
+            let t3 = t2 * t;
+            let c = p1.coords * 2.0
+                + (p2.coords - p0.coords) * t
+                + (p0.coords * 2.0 - p1.coords * 5.0 + p2.coords * 4.0 - p3.coords) * t2
+                + (p1.coords * 3.0 - p0.coords - p2.coords * 3.0 + p3.coords) * t3;
+            out.push(Point::from(c * 0.5));
+        }
+    }
+    out.push(control[n - 1]);
+}
+
+impl RenderGeometry {
+    /// Number of output vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of rendered strands.
+    pub fn strand_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// The output polyline of strand `s`.
+    pub fn strand(&self, s: usize) -> &[Point] {
+        &self.positions[self.offsets[s] as usize..self.offsets[s + 1] as usize]
+    }
+}

@@ -1,0 +1,691 @@
+//! Scenes: serde data in RON files (`scenes/*.ron`), documented in `docs/scene-format.md`.
+//!
+//! Every struct denies unknown fields and fills missing ones with their defaults, so a scene file
+//! names only what differs; [`Scene::validate`] then checks every value's range.
+
+use crate::HairError;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A whole scene: what is simulated, how, and how it is watched.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scene {
+    /// Name, for reports.
+    pub name: String,
+    /// Seed of every random choice (roots, offsets, turbulence).
+    pub seed: u64,
+    /// Frames `hair run` simulates when `--frames` is not given.
+    pub frames: u32,
+    /// Frames per second (s^-1).
+    pub frame_rate: f32,
+    /// Simulation steps per frame (the fixed step is `1 / (frame_rate * substeps)` s).
+    pub substeps: u32,
+    /// The body the hair grows on and collides with.
+    pub body: BodySpec,
+    /// The hair.
+    pub hairstyle: HairstyleSpec,
+    /// Strand material and integrator.
+    pub dynamics: DynamicsSpec,
+    /// Collision settings.
+    pub collision: CollisionSpec,
+    /// Level-of-detail policy.
+    pub lod: LodPolicy,
+    /// Whether dormant regions stop being integrated (salon paper §4.3).
+    pub localization: bool,
+    /// Camera path.
+    pub camera: CameraSpec,
+    /// Light.
+    pub light: LightSpec,
+    /// Wind.
+    pub wind: WindSpec,
+    /// The head's motion.
+    pub head_motion: HeadMotionSpec,
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Self {
+            name: "untitled".into(),
+            seed: 1,
+            frames: 120,
+            frame_rate: 60.0,
+            substeps: 1,
+            body: BodySpec::default(),
+            hairstyle: HairstyleSpec::default(),
+            dynamics: DynamicsSpec::default(),
+            collision: CollisionSpec::default(),
+            lod: LodPolicy::Fine,
+            localization: false,
+            camera: CameraSpec::default(),
+            light: LightSpec::default(),
+            wind: WindSpec::default(),
+            head_motion: HeadMotionSpec::Still,
+        }
+    }
+}
+
+/// The body.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum BodySpec {
+    /// No body.
+    None,
+    /// The procedural head, neck and shoulders (metres, +y up, face +z, head centre at the origin).
+    Head {
+        /// Mesh resolution: 96 gives about 50,000 triangles.
+        resolution: u32,
+    },
+    /// An OBJ file, scaled then offset into metres.
+    Obj {
+        /// Path, relative to the scene file.
+        path: String,
+        /// Scale from file units to metres.
+        scale: f32,
+        /// Offset added after scaling (m).
+        offset: [f32; 3],
+    },
+    /// A torus with wrinkles, lying in the xz plane (Ward & Lin's brushing scene).
+    Torus {
+        /// Centre (m).
+        center: [f32; 3],
+        /// Major radius (m).
+        major: f32,
+        /// Tube radius (m).
+        minor: f32,
+        /// Wrinkles around the ring.
+        wrinkles: u32,
+        /// Wrinkle depth as a fraction of the tube radius.
+        depth: f32,
+    },
+}
+
+impl Default for BodySpec {
+    fn default() -> Self {
+        BodySpec::Head { resolution: 64 }
+    }
+}
+
+/// The hair.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum HairstyleSpec {
+    /// Hair grown in code on the procedural head's scalp.
+    Procedural(ProceduralHair),
+    /// Strands from a `.tfx` or `.hair` file.
+    File {
+        /// Path, relative to the scene file.
+        path: String,
+        /// Scale from file units to metres.
+        scale: f32,
+        /// Offset added after scaling (m).
+        offset: [f32; 3],
+        /// Control points per skeleton (strands are resampled by arc length).
+        points: u32,
+    },
+}
+
+impl Default for HairstyleSpec {
+    fn default() -> Self {
+        HairstyleSpec::Procedural(ProceduralHair::default())
+    }
+}
+
+/// A procedural hairstyle.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProceduralHair {
+    /// Rendered strands.
+    pub strands: u32,
+    /// Rendered strands per simulated skeleton at the finest level (1 = every strand simulated).
+    pub strands_per_skeleton: u32,
+    /// Strand length (m).
+    pub length: f32,
+    /// Control points per skeleton.
+    pub points: u32,
+    /// Rest shape.
+    pub style: StyleSpec,
+    /// Scalp: roots lie on the head above this height (m, head frame).
+    pub scalp_min_height: f32,
+    /// Roots lie behind this plane (m along +z, the face direction); keeps the face clear.
+    pub scalp_max_forward: f32,
+    /// Half-width of the parting along the head's midline (m); 0 for none.
+    pub parting_width: f32,
+    /// Radius of one rendered strand (m).
+    pub strand_radius: f32,
+}
+
+impl Default for ProceduralHair {
+    fn default() -> Self {
+        Self {
+            strands: 2000,
+            strands_per_skeleton: 1,
+            length: 0.3,
+            points: 12,
+            style: StyleSpec::Straight,
+            scalp_min_height: 0.0,
+            scalp_max_forward: 0.06,
+            parting_width: 0.0,
+            strand_radius: 0.0015,
+        }
+    }
+}
+
+/// Rest shape of every skeleton.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum StyleSpec {
+    /// Straight.
+    Straight,
+    /// A planar wave.
+    Wavy {
+        /// Amplitude (m).
+        amplitude: f32,
+        /// Wavelength (m).
+        period: f32,
+    },
+    /// A helix.
+    Curly {
+        /// Curl radius (m).
+        radius: f32,
+        /// Rise per turn (m).
+        pitch: f32,
+    },
+}
+
+/// Strand material and integration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DynamicsSpec {
+    /// Integrator: `ExplicitEuler`, `SymplecticEuler`, `Rk4`, `ImplicitAngular`, `ImplicitCoupled`.
+    pub integrator: IntegratorSpec,
+    /// Torque model: `Chain` or `Local`.
+    pub torque: TorqueSpec,
+    /// Mass per unit length of one skeleton (kg/m).
+    pub linear_density: f32,
+    /// Bending stiffness EI at the root (N m^2).
+    pub bending_stiffness: f32,
+    /// Tip stiffness as a fraction of the root's.
+    pub tip_stiffness_ratio: f32,
+    /// Angular damping at the root (N m s / rad).
+    pub damping: f32,
+    /// Tip damping as a fraction of the root's.
+    pub tip_damping_ratio: f32,
+    /// Collision radius of a skeleton (m).
+    pub radius: f32,
+    /// Gravity (m/s^2, world).
+    pub gravity: [f32; 3],
+}
+
+impl Default for DynamicsSpec {
+    fn default() -> Self {
+        Self {
+            integrator: IntegratorSpec::ImplicitCoupled,
+            torque: TorqueSpec::Chain,
+            linear_density: 0.01,
+            bending_stiffness: 2e-6,
+            tip_stiffness_ratio: 0.3,
+            damping: 2e-6,
+            tip_damping_ratio: 0.3,
+            radius: 0.002,
+            gravity: [0.0, -9.81, 0.0],
+        }
+    }
+}
+
+/// Integrators, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[allow(missing_docs)]
+pub enum IntegratorSpec {
+    ExplicitEuler,
+    SymplecticEuler,
+    Rk4,
+    ImplicitAngular,
+    ImplicitCoupled,
+}
+
+/// Torque models, by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[allow(missing_docs)]
+pub enum TorqueSpec {
+    Local,
+    Chain,
+}
+
+/// Collision settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CollisionSpec {
+    /// Hair-object method: `Bvh` (exact, the SSV BVH) or `Maps` (Kurihara's cylinder/sphere
+    /// tables; the procedural head only).
+    pub method: CollisionMethod,
+    /// Coulomb friction against the body, in [0, 1].
+    pub friction: f32,
+    /// Whether hair collides with hair.
+    pub hair_hair: bool,
+    /// Hair-hair pairs closer than this angle (rad) are treated as parallel: they share velocity.
+    pub parallel_angle: f32,
+    /// The penetration tolerated after the hard constraint (m).
+    pub tolerance: f32,
+    /// Steps over which hair that starts inside the body is pushed out.
+    pub depenetration_steps: u32,
+}
+
+impl Default for CollisionSpec {
+    fn default() -> Self {
+        Self {
+            method: CollisionMethod::Bvh,
+            friction: 0.3,
+            hair_hair: true,
+            parallel_angle: 0.3,
+            tolerance: 1e-3,
+            depenetration_steps: 10,
+        }
+    }
+}
+
+/// Hair-object collision method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CollisionMethod {
+    /// Exact distances through the SSV BVH of the body mesh.
+    Bvh,
+    /// Cylinder and sphere tables (Kurihara et al. §3.1).
+    Maps,
+}
+
+/// Level-of-detail policies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LodPolicy {
+    /// The finest skeletons everywhere.
+    Fine,
+    /// Chosen per node from visibility, distance and motion.
+    Adaptive,
+    /// Coarse strand groups everywhere.
+    CoarseStrands,
+    /// Clusters everywhere.
+    Clusters,
+    /// Strips everywhere.
+    Strips,
+}
+
+impl LodPolicy {
+    /// Every policy, finest first.
+    pub const ALL: [LodPolicy; 5] = [
+        LodPolicy::Fine,
+        LodPolicy::Adaptive,
+        LodPolicy::CoarseStrands,
+        LodPolicy::Clusters,
+        LodPolicy::Strips,
+    ];
+
+    /// The CLI name (`fine`, `adaptive`, `coarse-strands`, `clusters`, `strips`).
+    pub fn name(self) -> &'static str {
+        match self {
+            LodPolicy::Fine => "fine",
+            LodPolicy::Adaptive => "adaptive",
+            LodPolicy::CoarseStrands => "coarse-strands",
+            LodPolicy::Clusters => "clusters",
+            LodPolicy::Strips => "strips",
+        }
+    }
+
+    /// Parses a CLI name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+/// A camera path: keyframes interpolated linearly in time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraSpec {
+    /// Keyframes, in time order.
+    pub keys: Vec<CameraKey>,
+    /// Vertical field of view (degrees).
+    pub fov_degrees: f32,
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        Self {
+            keys: vec![CameraKey {
+                time: 0.0,
+                eye: [0.0, 0.05, 0.8],
+                target: [0.0, -0.05, 0.0],
+            }],
+            fov_degrees: 40.0,
+        }
+    }
+}
+
+/// One camera keyframe.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraKey {
+    /// Time (s).
+    pub time: f32,
+    /// Eye position (m, world).
+    pub eye: [f32; 3],
+    /// Point looked at (m, world).
+    pub target: [f32; 3],
+}
+
+/// A directional light.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LightSpec {
+    /// Direction the light travels (world).
+    pub direction: [f32; 3],
+    /// Colour (linear RGB).
+    pub color: [f32; 3],
+}
+
+impl Default for LightSpec {
+    fn default() -> Self {
+        Self {
+            direction: [-0.3, -0.8, -0.5],
+            color: [1.0, 1.0, 1.0],
+        }
+    }
+}
+
+/// Wind (see `hair_dynamics::Wind`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WindSpec {
+    /// Mean flow direction (world).
+    pub direction: [f32; 3],
+    /// Mean speed (m/s).
+    pub speed: f32,
+    /// Gust amplitude (fraction of the speed).
+    pub gust: f32,
+    /// Gust frequency (Hz).
+    pub gust_frequency: f32,
+    /// Turbulence amplitude (fraction of the speed).
+    pub turbulence: f32,
+    /// Turbulence length scale (m).
+    pub turbulence_scale: f32,
+    /// Linear drag coefficient (N s / m^2).
+    pub drag: f32,
+}
+
+impl Default for WindSpec {
+    fn default() -> Self {
+        Self {
+            direction: [0.0, 0.0, -1.0],
+            speed: 0.0,
+            gust: 0.0,
+            gust_frequency: 0.5,
+            turbulence: 0.0,
+            turbulence_scale: 0.1,
+            drag: 0.0,
+        }
+    }
+}
+
+/// The head's motion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum HeadMotionSpec {
+    /// The head stays still.
+    Still,
+    /// The head turns back and forth about an axis through its centre.
+    Shake {
+        /// Axis (world).
+        axis: [f32; 3],
+        /// Amplitude (degrees).
+        amplitude_degrees: f32,
+        /// Frequency (Hz).
+        frequency: f32,
+    },
+}
+
+/// Names and texts of the built-in scenes, embedded so `hair run NAME` works from anywhere.
+pub const BUILTIN: [(&str, &str); 7] = [
+    ("wind", include_str!("../scenes/wind.ron")),
+    ("shake", include_str!("../scenes/shake.ron")),
+    ("torus", include_str!("../scenes/torus.ron")),
+    ("zoom", include_str!("../scenes/zoom.ron")),
+    ("bristles", include_str!("../scenes/bristles.ron")),
+    ("wardlin", include_str!("../scenes/wardlin.ron")),
+    ("sintel", include_str!("../scenes/sintel.ron")),
+];
+
+/// A scene with the directory its relative paths resolve against.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Where relative paths in it resolve.
+    pub base_dir: PathBuf,
+    /// The file it came from (or `builtin:NAME`).
+    pub source: String,
+}
+
+impl Scene {
+    /// Parses RON text; `file` names it in errors.
+    pub fn from_ron(text: &str, file: &str) -> Result<Scene, HairError> {
+        let scene: Scene = ron::from_str(text).map_err(|e| HairError::SceneSyntax {
+            file: file.to_string(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: e.code.to_string(),
+        })?;
+        scene.validate(file)?;
+        Ok(scene)
+    }
+
+    /// The scene as RON text.
+    pub fn to_ron(&self) -> String {
+        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default()).unwrap_or_default()
+    }
+
+    /// Loads a built-in scene by name, or a scene file by path.
+    pub fn load(name_or_path: &str) -> Result<LoadedScene, HairError> {
+        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+        if let Some((name, text)) = BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
+            let source = format!("builtin:{name}");
+            return Ok(LoadedScene {
+                scene: Scene::from_ron(text, &source)?,
+                base_dir: root.join("scenes"),
+                source,
+            });
+        }
+        let path = Path::new(name_or_path);
+        if !path.exists() {
+            let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+            return Err(HairError::UnknownScene(
+                name_or_path.to_string(),
+                names.join(", "),
+            ));
+        }
+        let source = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| HairError::Io {
+            file: source.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(LoadedScene {
+            scene: Scene::from_ron(&text, &source)?,
+            base_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+            source,
+        })
+    }
+
+    /// Checks every value's range; errors name the field.
+    pub fn validate(&self, file: &str) -> Result<(), HairError> {
+        let bad = |field: &str, message: &str| HairError::SceneValue {
+            file: file.to_string(),
+            field: field.to_string(),
+            message: message.to_string(),
+        };
+        let finite = |field: &str, v: &[f32]| -> Result<(), HairError> {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(())
+            } else {
+                Err(bad(field, "must be finite"))
+            }
+        };
+        let positive = |field: &str, v: f32| -> Result<(), HairError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(field, &format!("must be positive and finite, got {v}")))
+            }
+        };
+        let non_negative = |field: &str, v: f32| -> Result<(), HairError> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(
+                    field,
+                    &format!("must be non-negative and finite, got {v}"),
+                ))
+            }
+        };
+        positive("frame_rate", self.frame_rate)?;
+        if self.substeps == 0 || self.substeps > 1000 {
+            return Err(bad("substeps", "must be between 1 and 1000"));
+        }
+        match &self.body {
+            BodySpec::None => {}
+            BodySpec::Head { resolution } => {
+                if !(8..=512).contains(resolution) {
+                    return Err(bad("body.Head.resolution", "must be between 8 and 512"));
+                }
+            }
+            BodySpec::Obj { scale, offset, .. } => {
+                positive("body.Obj.scale", *scale)?;
+                finite("body.Obj.offset", offset)?;
+            }
+            BodySpec::Torus {
+                center,
+                major,
+                minor,
+                depth,
+                ..
+            } => {
+                finite("body.Torus.center", center)?;
+                positive("body.Torus.major", *major)?;
+                positive("body.Torus.minor", *minor)?;
+                non_negative("body.Torus.depth", *depth)?;
+                if minor >= major {
+                    return Err(bad(
+                        "body.Torus.minor",
+                        "must be smaller than the major radius",
+                    ));
+                }
+            }
+        }
+        match &self.hairstyle {
+            HairstyleSpec::Procedural(p) => {
+                if p.strands == 0 {
+                    return Err(bad("hairstyle.strands", "must be at least 1"));
+                }
+                if p.strands_per_skeleton == 0 {
+                    return Err(bad("hairstyle.strands_per_skeleton", "must be at least 1"));
+                }
+                positive("hairstyle.length", p.length)?;
+                if !(2..=64).contains(&p.points) {
+                    return Err(bad("hairstyle.points", "must be between 2 and 64"));
+                }
+                finite(
+                    "hairstyle.scalp_min_height",
+                    &[p.scalp_min_height, p.scalp_max_forward],
+                )?;
+                non_negative("hairstyle.parting_width", p.parting_width)?;
+                positive("hairstyle.strand_radius", p.strand_radius)?;
+                match p.style {
+                    StyleSpec::Straight => {}
+                    StyleSpec::Wavy { amplitude, period } => {
+                        non_negative("hairstyle.style.amplitude", amplitude)?;
+                        positive("hairstyle.style.period", period)?;
+                    }
+                    StyleSpec::Curly { radius, pitch } => {
+                        non_negative("hairstyle.style.radius", radius)?;
+                        positive("hairstyle.style.pitch", pitch)?;
+                    }
+                }
+            }
+            HairstyleSpec::File {
+                scale,
+                offset,
+                points,
+                ..
+            } => {
+                positive("hairstyle.File.scale", *scale)?;
+                finite("hairstyle.File.offset", offset)?;
+                if !(2..=64).contains(points) {
+                    return Err(bad("hairstyle.File.points", "must be between 2 and 64"));
+                }
+            }
+        }
+        let d = &self.dynamics;
+        positive("dynamics.linear_density", d.linear_density)?;
+        non_negative("dynamics.bending_stiffness", d.bending_stiffness)?;
+        non_negative("dynamics.tip_stiffness_ratio", d.tip_stiffness_ratio)?;
+        non_negative("dynamics.damping", d.damping)?;
+        non_negative("dynamics.tip_damping_ratio", d.tip_damping_ratio)?;
+        positive("dynamics.radius", d.radius)?;
+        finite("dynamics.gravity", &d.gravity)?;
+        let c = &self.collision;
+        if !(c.friction.is_finite() && (0.0..=1.0).contains(&c.friction)) {
+            return Err(bad("collision.friction", "must be in [0, 1]"));
+        }
+        non_negative("collision.parallel_angle", c.parallel_angle)?;
+        positive("collision.tolerance", c.tolerance)?;
+        if self.camera.keys.is_empty() {
+            return Err(bad("camera.keys", "needs at least one keyframe"));
+        }
+        for (i, k) in self.camera.keys.iter().enumerate() {
+            finite(
+                &format!("camera.keys[{i}]"),
+                &[
+                    k.time,
+                    k.eye[0],
+                    k.eye[1],
+                    k.eye[2],
+                    k.target[0],
+                    k.target[1],
+                    k.target[2],
+                ],
+            )?;
+            if i > 0 && k.time < self.camera.keys[i - 1].time {
+                return Err(bad(
+                    &format!("camera.keys[{i}].time"),
+                    "keyframes must be in time order",
+                ));
+            }
+        }
+        if !(self.camera.fov_degrees > 1.0 && self.camera.fov_degrees < 179.0) {
+            return Err(bad("camera.fov_degrees", "must be between 1 and 179"));
+        }
+        finite("light.direction", &self.light.direction)?;
+        finite("light.color", &self.light.color)?;
+        let w = &self.wind;
+        finite("wind.direction", &w.direction)?;
+        for (f, v) in [
+            ("wind.speed", w.speed),
+            ("wind.gust", w.gust),
+            ("wind.gust_frequency", w.gust_frequency),
+            ("wind.turbulence", w.turbulence),
+            ("wind.turbulence_scale", w.turbulence_scale),
+            ("wind.drag", w.drag),
+        ] {
+            non_negative(f, v)?;
+        }
+        if let HeadMotionSpec::Shake {
+            axis,
+            amplitude_degrees,
+            frequency,
+        } = &self.head_motion
+        {
+            finite("head_motion.Shake.axis", axis)?;
+            if axis.iter().all(|x| *x == 0.0) {
+                return Err(bad("head_motion.Shake.axis", "must not be zero"));
+            }
+            finite("head_motion.Shake.amplitude_degrees", &[*amplitude_degrees])?;
+            non_negative("head_motion.Shake.frequency", *frequency)?;
+        }
+        Ok(())
+    }
+}
