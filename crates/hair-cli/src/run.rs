@@ -26,6 +26,12 @@ pub struct Args {
     /// Seed (default: the scene's own).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Render every frame to DIR/frame_NNNN.png (GPU through wgpu, or the CPU reference).
+    #[arg(long)]
+    pub render: bool,
+    /// Width and height of rendered frames (pixels).
+    #[arg(long, default_value_t = 640)]
+    pub size: u32,
 }
 
 /// Per-frame metrics: the stats of the frame's last step plus the frame's totals.
@@ -95,7 +101,11 @@ pub struct Stages {
 }
 
 /// Runs a scene and returns its summary and per-frame metrics, without writing anything.
-pub fn simulate(args: &Args, progress: bool) -> Result<(Summary, Vec<FrameMetrics>, Simulation)> {
+pub fn simulate(
+    args: &Args,
+    progress: bool,
+    on_frame: &mut (dyn FnMut(u32, &Simulation) -> Result<()> + Send),
+) -> Result<(Summary, Vec<FrameMetrics>, Simulation)> {
     let mut loaded = Scene::load(&args.scene)?;
     if let Some(seed) = args.seed {
         loaded.scene.seed = seed;
@@ -162,6 +172,7 @@ pub fn simulate(args: &Args, progress: bool) -> Result<(Summary, Vec<FrameMetric
                 ms_frame,
                 last_step: last,
             });
+            on_frame(frame, &sim)?;
             if let Some(b) = &bar {
                 b.inc(1);
             }
@@ -204,9 +215,25 @@ pub fn simulate(args: &Args, progress: bool) -> Result<(Summary, Vec<FrameMetric
 
 /// Runs the command.
 pub fn run(args: Args) -> Result<()> {
-    let (summary, metrics, _) = simulate(&args, std::io::stderr().is_terminal())?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    let renderer = args.render.then(hair_render::Renderer::new);
+    if let Some(r) = &renderer {
+        eprintln!("rendering with {}", r.describe());
+    }
+    let mut frame_out = |frame: u32, sim: &Simulation| -> Result<()> {
+        let Some(r) = &renderer else { return Ok(()) };
+        let scene = render_scene(sim);
+        let settings = hair_render::RenderSettings {
+            width: args.size,
+            height: args.size,
+            ..hair_render::RenderSettings::default()
+        };
+        let image = r.render_to_image(&scene, &settings)?;
+        hair_render::save_png(&image, args.out.join(format!("frame_{frame:04}.png")))?;
+        Ok(())
+    };
+    let (summary, metrics, _) = simulate(&args, std::io::stderr().is_terminal(), &mut frame_out)?;
     let write = |name: &str, text: String| -> Result<()> {
         let path = args.out.join(name);
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
@@ -215,4 +242,65 @@ pub fn run(args: Args) -> Result<()> {
     write("summary.json", serde_json::to_string_pretty(&summary)?)?;
     println!("{}", serde_json::to_string_pretty(&summary)?);
     Ok(())
+}
+
+/// The renderer's plain-data view of a simulation: camera, light, the body in world space and
+/// every rendered strand.
+pub fn render_scene(sim: &Simulation) -> hair_render::RenderScene {
+    use hair_render::{BodyMesh, Camera, Light, RenderScene, Strand, StrandPoint};
+    let scene = sim.scene();
+    let (eye, target) = hair::drivers::camera(&scene.camera, sim.time());
+    let head = hair::drivers::head_motion(&scene.head_motion, sim.time());
+    let to_world = |p: &hair::ssv::Point| head.position + head.rotation * p.coords;
+    let body = sim.body().map(|b| {
+        let positions: Vec<_> = b.vertices.iter().map(to_world).collect();
+        let mut normals = vec![hair::ssv::Vector::zeros(); positions.len()];
+        for t in &b.triangles {
+            let [a, bb, c] = t.map(|i| positions[i as usize]);
+            let n = (bb - a).cross(&(c - a));
+            for &i in t {
+                normals[i as usize] += n;
+            }
+        }
+        for n in &mut normals {
+            *n = n.try_normalize(1e-20).unwrap_or_else(hair::ssv::Vector::y);
+        }
+        BodyMesh {
+            positions,
+            normals,
+            triangles: b.triangles.clone(),
+            color: [0.78, 0.6, 0.5],
+        }
+    });
+    let radius = match &scene.hairstyle {
+        hair::scene::HairstyleSpec::Procedural(p) => p.strand_radius,
+        hair::scene::HairstyleSpec::File { .. } => 0.0015,
+    };
+    let geometry = sim.render_geometry();
+    let strands = (0..geometry.strand_count())
+        .map(|s| Strand {
+            points: geometry
+                .strand(s)
+                .iter()
+                .map(|p| StrandPoint::new(*p, radius, [0.35, 0.22, 0.12]))
+                .collect(),
+        })
+        .collect();
+    let d = hair::ssv::Vector::from(scene.light.direction);
+    RenderScene {
+        camera: Camera {
+            eye,
+            target,
+            fov_y: scene.camera.fov_degrees.to_radians(),
+            ..Camera::default()
+        },
+        light: Light {
+            direction: -d,
+            color: scene.light.color,
+            ..Light::default()
+        },
+        body,
+        strands,
+        ..RenderScene::default()
+    }
 }
