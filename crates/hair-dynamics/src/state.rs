@@ -426,19 +426,23 @@ impl StrandState {
         let range = self.nodes(id);
         let root = self.root_dyn(id.0 as usize);
         let n = range.len();
-        let mut sc = crate::strand::Scratch::<Real>::default();
-        sc.reserve(n, false);
-        let (q, w) = interleave(
-            &self.theta[range.clone()],
-            &self.phi[range.clone()],
-            &self.omega_theta[range.clone()],
-            &self.omega_phi[range.clone()],
-        );
-        crate::strand::forward(&root, &q, &w, &self.length[range.clone()], &mut sc);
-        for (k, i) in range.enumerate() {
-            self.positions[i] = Point::from(sc.pos[k]);
-            self.velocities[i] = sc.vel[k];
-        }
+        // Collision response calls this inside the step loop: reuse one scratch per thread.
+        REFRESH_SCRATCH.with(|cell| {
+            let mut guard = cell.borrow_mut();
+            let (sc, q, w) = &mut *guard;
+            sc.reserve(n, false);
+            q.clear();
+            w.clear();
+            for i in range.start + 1..range.end {
+                q.extend([self.theta[i], self.phi[i]]);
+                w.extend([self.omega_theta[i], self.omega_phi[i]]);
+            }
+            crate::strand::forward(&root, q, w, &self.length[range.clone()], sc);
+            for (k, i) in range.enumerate() {
+                self.positions[i] = Point::from(sc.pos[k]);
+                self.velocities[i] = sc.vel[k];
+            }
+        });
     }
 
     pub(crate) fn root_dyn(&self, s: usize) -> crate::strand::RootDyn<Real> {
@@ -582,21 +586,8 @@ pub(crate) fn angles_of_polyline(
     (theta, phi)
 }
 
-/// Interleaves per-node angles into per-coordinate arrays (`theta_1, phi_1, theta_2, ...`).
-pub(crate) fn interleave(
-    theta: &[Real],
-    phi: &[Real],
-    wt: &[Real],
-    wp: &[Real],
-) -> (Vec<Real>, Vec<Real>) {
-    let n = theta.len();
-    let mut q = Vec::with_capacity(2 * n);
-    let mut w = Vec::with_capacity(2 * n);
-    for i in 1..n {
-        q.push(theta[i]);
-        q.push(phi[i]);
-        w.push(wt[i]);
-        w.push(wp[i]);
-    }
-    (q, w)
+type RefreshScratch = (crate::strand::Scratch<Real>, Vec<Real>, Vec<Real>);
+
+thread_local! {
+    static REFRESH_SCRATCH: std::cell::RefCell<RefreshScratch> = std::cell::RefCell::new(Default::default());
 }
