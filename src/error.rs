@@ -54,4 +54,7 @@ pub enum HairError {
     /// The grid rejected its input.
     #[error("grid: {0}")]
     Grid(#[from] hair_grid::GridError),
+    /// The level-of-detail layer rejected a transition.
+    #[error("lod: {0}")]
+    Lod(#[from] hair_lod::LodError),
 }

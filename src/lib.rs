@@ -29,6 +29,7 @@ pub use hair_io as io;
 pub use hair_lod as lod;
 pub use hair_ssv as ssv;
 
+pub mod adaptive;
 mod body;
 pub mod drivers;
 mod error;

@@ -31,6 +31,10 @@ pub struct Scene {
     pub collision: CollisionSpec,
     /// Level-of-detail policy.
     pub lod: LodPolicy,
+    /// How strands are grouped into the strip / cluster / strand-group hierarchy.
+    pub hierarchy: HierarchySpec,
+    /// When the `adaptive` policy asks for detail.
+    pub adaptive: AdaptiveSpec,
     /// Whether dormant regions stop being integrated (salon paper §4.3).
     pub localization: bool,
     /// Camera path.
@@ -56,11 +60,101 @@ impl Default for Scene {
             dynamics: DynamicsSpec::default(),
             collision: CollisionSpec::default(),
             lod: LodPolicy::Fine,
+            hierarchy: HierarchySpec::default(),
+            adaptive: AdaptiveSpec::default(),
             localization: false,
             camera: CameraSpec::default(),
             light: LightSpec::default(),
             wind: WindSpec::default(),
             head_motion: HeadMotionSpec::Still,
+        }
+    }
+}
+
+/// Thresholds of the LOD hierarchy (Ward & Lin §4-5; SI units). The defaults suit a human
+/// head of about 0.1 m radius.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HierarchySpec {
+    /// Width across the scalp of a root strip (m).
+    pub root_strip_width: f32,
+    /// Extent of a row of root strips down the scalp (m).
+    pub root_strip_depth: f32,
+    /// Strips split in two until narrower than this (m).
+    pub strip_width_min: f32,
+    /// Clusters split into quadrants until their radius is under this (m).
+    pub cluster_radius_min: f32,
+    /// Fewest strands in a finest strand group where hair is most viewable (up and forward).
+    pub min_group_fine: u32,
+    /// Fewest strands in a finest strand group where hair is least viewable (the nape).
+    pub min_group_coarse: u32,
+}
+
+impl Default for HierarchySpec {
+    fn default() -> Self {
+        let d = hair_lod::HierarchyParams::default();
+        let (fine, coarse) = match d.min_group {
+            hair_lod::MinGroup::Regional { fine, coarse, .. } => (fine, coarse),
+            hair_lod::MinGroup::Uniform(n) => (n, n),
+        };
+        Self {
+            root_strip_width: d.root_strip_width,
+            root_strip_depth: d.root_strip_depth,
+            strip_width_min: d.strip_width_min,
+            cluster_radius_min: d.cluster_radius_min,
+            min_group_fine: fine,
+            min_group_coarse: coarse,
+        }
+    }
+}
+
+impl HierarchySpec {
+    /// The hair-lod parameters; `toward` is up and forward in the head frame (+y up, face +z).
+    pub fn params(&self) -> hair_lod::HierarchyParams {
+        hair_lod::HierarchyParams {
+            root_strip_width: self.root_strip_width,
+            root_strip_depth: self.root_strip_depth,
+            strip_width_min: self.strip_width_min,
+            cluster_radius_min: self.cluster_radius_min,
+            min_group: hair_lod::MinGroup::Regional {
+                fine: self.min_group_fine,
+                coarse: self.min_group_coarse,
+                toward: nalgebra::Vector3::new(0.0, 1.0, 1.0).normalize(),
+            },
+        }
+    }
+}
+
+/// When the `adaptive` LOD policy asks for detail (Ward & Lin §6.1): the level a node wants
+/// rises as it gets nearer the camera or moves faster; hair the camera cannot see collapses to
+/// its root strip and is not drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdaptiveSpec {
+    /// Nearer than this the finest level (m).
+    pub distance_finest: f32,
+    /// Farther than this the coarsest level (m).
+    pub distance_coarsest: f32,
+    /// Slower than this asks for the coarsest level (m/s).
+    pub speed_coarsest: f32,
+    /// Faster than this asks for the finest level (m/s).
+    pub speed_finest: f32,
+    /// Children within this distance of their parent merge (m).
+    pub merge_distance: f32,
+    /// Whether hair hidden from the camera (behind the head or outside the view) collapses.
+    pub cull_hidden: bool,
+}
+
+impl Default for AdaptiveSpec {
+    fn default() -> Self {
+        let s = hair_lod::SelectParams::default();
+        Self {
+            distance_finest: s.distance_finest,
+            distance_coarsest: s.distance_coarsest,
+            speed_coarsest: s.speed_coarsest,
+            speed_finest: s.speed_finest,
+            merge_distance: hair_lod::MergeParams::default().merge_distance,
+            cull_hidden: true,
         }
     }
 }
@@ -256,8 +350,9 @@ pub enum TorqueSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CollisionSpec {
-    /// Hair-object method: `Bvh` (exact, the SSV BVH) or `Maps` (Kurihara's cylinder/sphere
-    /// tables; the procedural head only).
+    /// Hair-object method: `Field` (signed distances sampled from the BVH, interpolated),
+    /// `Bvh` (exact, the SSV BVH) or `Maps` (Kurihara's cylinder/sphere tables; the
+    /// procedural head only).
     pub method: CollisionMethod,
     /// Coulomb friction against the body, in [0, 1].
     pub friction: f32,
@@ -274,7 +369,7 @@ pub struct CollisionSpec {
 impl Default for CollisionSpec {
     fn default() -> Self {
         Self {
-            method: CollisionMethod::Bvh,
+            method: CollisionMethod::Field,
             friction: 0.3,
             hair_hair: true,
             parallel_angle: 0.3,
@@ -287,6 +382,9 @@ impl Default for CollisionSpec {
 /// Hair-object collision method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CollisionMethod {
+    /// Signed distances sampled from the exact query on a grid a few millimetres apart and
+    /// interpolated trilinearly (the fast default; its error is measured at load).
+    Field,
     /// Exact distances through the SSV BVH of the body mesh.
     Bvh,
     /// Cylinder and sphere tables (Kurihara et al. §3.1).

@@ -6,15 +6,16 @@
 
 use crate::body::BodyModel;
 use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
-use crate::scene::{CollisionMethod, IntegratorSpec, LodPolicy, Scene, TorqueSpec};
+use crate::scene::{IntegratorSpec, LodPolicy, Scene, TorqueSpec};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
 use hair_dynamics::{
     Environment, Integrator, LinearSolver, Material, NodeCorrection, SkeletonId, StepSettings,
     StrandState, TorqueModel, VelocityConstraint, Wind,
 };
 use hair_grid::{Activity, ActivityConfig, ActivityInput, Grid, GridConfig, PairSet, Section};
-use hair_lod::{Hierarchy, HierarchyParams, NodeKind};
-use hair_ssv::{Lss, Point, Real, Ssv, SurfaceMap, Vector};
+use crate::adaptive::{AdaptiveLod, View};
+use hair_lod::{Hierarchy, HierarchyParams, NodeKind, TransitionReport};
+use hair_ssv::{Lss, Point, Real, Ssv, Vector};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -84,15 +85,26 @@ pub struct Simulation {
     frozen_skeleton: Vec<bool>,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
-    velocity_targets: Vec<(u32, Vector)>,
+    pair_list: Vec<[u32; 2]>,
+    pair_responses: Vec<PairResponse>,
+    body_nodes: Vec<BodyNode>,
+    touched: Vec<bool>,
     body_hits: Vec<Option<(Real, Vector)>>,
     render: RenderGeometry,
     strand_node: Vec<u32>,
     node_frames: Vec<Vec<Matrix3<Real>>>,
     node_radius: Vec<Real>,
     strand_rest: Vec<Point>,
+    /// Per node, where its strands' offsets start in `strand_local`.
+    node_local_start: Vec<u32>,
+    /// Each strand's offset from each node containing it, per control point, in that node's
+    /// rest transport frames (so the offset turns with the skeleton).
     strand_local: Vec<Vector>,
+    /// Where the offsets of each strand from its current front node start.
+    strand_slot: Vec<u32>,
     points_per_strand: usize,
+    adaptive: Option<AdaptiveLod>,
+    last_lod: TransitionReport,
     initial: StrandState,
 }
 
@@ -171,13 +183,6 @@ impl Simulation {
                 state.radius_mut()[i] = r;
             }
         }
-        if policy == LodPolicy::Adaptive {
-            // hair-lod selects and transitions; wiring its split/merge into this state is the
-            // open part of the pipeline issue. Refuse rather than quietly run the finest level.
-            return Err(HairError::Unsupported(
-                "the adaptive LOD policy in the pipeline (use fine, coarse-strands, clusters or strips)".into(),
-            ));
-        }
         let front_nodes = fixed_front(&hierarchy, policy);
         let points_per_strand = style.strands[0].points.len();
         if let Some(bad) = style
@@ -235,7 +240,10 @@ impl Simulation {
             frozen_skeleton: Vec::new(),
             corrections: Vec::new(),
             constraints: Vec::new(),
-            velocity_targets: Vec::new(),
+            pair_list: Vec::new(),
+            pair_responses: Vec::new(),
+            body_nodes: Vec::new(),
+            touched: Vec::new(),
             body_hits: Vec::new(),
             render: RenderGeometry {
                 subdivisions: 3,
@@ -245,10 +253,30 @@ impl Simulation {
             node_frames: Vec::new(),
             node_radius,
             strand_rest,
+            node_local_start: Vec::new(),
             strand_local: Vec::new(),
+            strand_slot: Vec::new(),
+            adaptive: None,
+            last_lod: TransitionReport::default(),
             points_per_strand,
         };
         sim.prepare_render();
+        if policy == LodPolicy::Adaptive {
+            let mut lod = AdaptiveLod::new(&sim.hierarchy, &sim.scene.adaptive)?;
+            for n in 0..sim.hierarchy.node_count() as u32 {
+                sim.state.set_active(SkeletonId(n), lod.front().is_active(n));
+            }
+            // Settle the starting front: one level per selection, from the root strips down.
+            let view = sim.view(0.0);
+            for _ in 0..=sim.hierarchy.max_level() {
+                if !lod.update(&sim.hierarchy, &mut sim.state, &view, &[])? {
+                    break;
+                }
+            }
+            sim.adaptive = Some(lod);
+            sim.refresh_front();
+        }
+        sim.initial = sim.state.clone();
         sim.update_render_geometry();
         Ok(sim)
     }
@@ -302,27 +330,81 @@ impl Simulation {
         self.update_render_geometry();
     }
 
-    /// Which front node draws each strand, and each strand's offset from it per control point in
-    /// the node's rest transport frames (so the offset turns with the skeleton).
+    /// Every strand's offsets from every node that contains it, then the assignment of strands
+    /// to the current front.
     fn prepare_render(&mut self) {
         let h = &self.hierarchy;
         let per = self.points_per_strand;
-        let n_strands = h.strand_total();
-        self.strand_node = vec![0; n_strands];
-        self.strand_local = vec![Vector::zeros(); n_strands * per];
         let mut frames = Vec::new();
-        for &node in &self.front_nodes {
-            let rest = h.rest_points(node);
+        let mut rest = Vec::new();
+        self.node_local_start.clear();
+        self.strand_local.clear();
+        for node in 0..h.node_count() as u32 {
+            self.node_local_start.push(self.strand_local.len() as u32);
+            h.rest_points_into(node, &mut rest);
             let first = self.initial.root_frame(SkeletonId(node));
             transport_frames(&rest, first.matrix(), &mut frames);
             for &s in h.strands(node) {
                 let s = s as usize;
-                self.strand_node[s] = node;
-                for k in 0..per.min(rest.len()) {
-                    let d = self.strand_rest[s * per + k] - rest[k];
-                    self.strand_local[s * per + k] = frames[k].transpose() * d;
+                for k in 0..per {
+                    let k_node = k.min(rest.len() - 1);
+                    let d = self.strand_rest[s * per + k] - rest[k_node];
+                    self.strand_local.push(frames[k_node].transpose() * d);
                 }
             }
+        }
+        self.assign_strands();
+    }
+
+    /// Which front node draws each strand.
+    fn assign_strands(&mut self) {
+        let h = &self.hierarchy;
+        let per = self.points_per_strand as u32;
+        let n_strands = h.strand_total();
+        self.strand_node.resize(n_strands, 0);
+        self.strand_slot.resize(n_strands, 0);
+        for &node in &self.front_nodes {
+            let start = self.node_local_start[node as usize];
+            for (j, &s) in h.strands(node).iter().enumerate() {
+                self.strand_node[s as usize] = node;
+                self.strand_slot[s as usize] = start + j as u32 * per;
+            }
+        }
+    }
+
+    /// The active front of the adaptive policy as a sorted node list, and the strands' owners.
+    fn refresh_front(&mut self) {
+        if let Some(lod) = &self.adaptive {
+            self.front_nodes.clear();
+            self.front_nodes.extend(
+                (0..self.hierarchy.node_count() as u32).filter(|&n| lod.front().is_active(n)),
+            );
+            self.assign_strands();
+        }
+    }
+
+    /// The camera's view in the head frame at time `t`.
+    fn view(&self, t: Real) -> View {
+        let head = drivers::head_motion(&self.scene.head_motion, t);
+        let (eye, target) = drivers::camera(&self.scene.camera, t);
+        let to_head = |p: Point| Point::from(head.rotation.inverse() * (p - head.position));
+        let (eye, target) = (to_head(eye), to_head(target));
+        let forward = (target - eye).try_normalize(1e-9).unwrap_or_else(|| -Vector::z());
+        // The cone around the whole image at a 3:2 aspect ratio, with a little margin.
+        let tan_v = (0.5 * self.scene.camera.fov_degrees.to_radians()).tan();
+        let half = (tan_v * (1.0 + 1.5f32 * 1.5).sqrt()).atan() * 1.1;
+        let occluder = match self.scene.body {
+            crate::scene::BodySpec::Head { .. } => {
+                let (c, axes) = hair_ssv::test_meshes::HEAD;
+                Some((Point::from(c), Vector::from(axes) * 0.9))
+            }
+            _ => None,
+        };
+        View {
+            eye,
+            forward,
+            cos_half_angle: half.min(std::f32::consts::FRAC_PI_2).cos(),
+            occluder,
         }
     }
 
@@ -356,7 +438,16 @@ impl Simulation {
         let t1 = Instant::now();
         stats.ms_drivers = ms(t0, t1);
 
-        // 2. LOD: fixed fronts change nothing.
+        // 2. LOD: fixed fronts change nothing; the adaptive one is re-selected.
+        if let Some(mut lod) = self.adaptive.take() {
+            let view = self.view(self.time);
+            let result = lod.update(&self.hierarchy, &mut self.state, &view, &self.frozen_skeleton);
+            self.last_lod = lod.last_report();
+            self.adaptive = Some(lod);
+            if result? {
+                self.refresh_front();
+            }
+        }
         let t2 = Instant::now();
         stats.ms_lod = ms(t1, t2);
 
@@ -416,62 +507,64 @@ impl Simulation {
         if self.scene.collision.hair_hair {
             self.grid.overlapping_pairs(&mut self.pairs);
             stats.pairs_tested = self.pairs.len();
-            self.corrections.clear();
-            self.velocity_targets.clear();
+            self.pair_list.clear();
+            self.pair_list.extend(self.pairs.iter());
             let cos_parallel = self.scene.collision.parallel_angle.cos();
-            for [a, b] in self.pairs.iter() {
-                let (Ssv::Line(la), Ssv::Line(lb)) = (
-                    &self.sections[a as usize].shape,
-                    &self.sections[b as usize].shape,
-                ) else {
-                    continue;
-                };
-                let ta = (la.b - la.a).normalize();
-                let tb = (lb.b - lb.a).normalize();
-                let (na, nb) = (self.section_node[a as usize], self.section_node[b as usize]);
-                let active_a = self
-                    .state
-                    .is_active(SkeletonId(self.sections[a as usize].skeleton));
-                let active_b = self
-                    .state
-                    .is_active(SkeletonId(self.sections[b as usize].skeleton));
-                if !(active_a || active_b) {
-                    continue;
-                }
-                stats.hair_contacts += 1;
-                if ta.dot(&tb).abs() >= cos_parallel {
-                    // Near-parallel sections move together: their joints share their rates (the
-                    // mean never raises the sum of squared rates, so no energy is added).
-                    self.velocity_targets.push((na, Vector::zeros()));
-                    self.velocity_targets.push((nb, Vector::zeros()));
-                } else {
-                    let c = self.sections[a as usize]
-                        .shape
-                        .closest_points(&self.sections[b as usize].shape);
+            let (sections, section_node, state) = (&self.sections, &self.section_node, &self.state);
+            self.pair_list
+                .par_iter()
+                .map(|&[a, b]| {
+                    let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
+                    let (Ssv::Line(la), Ssv::Line(lb)) = (&sa.shape, &sb.shape) else {
+                        return PairResponse::None;
+                    };
+                    if !(state.is_active(SkeletonId(sa.skeleton))
+                        || state.is_active(SkeletonId(sb.skeleton)))
+                    {
+                        return PairResponse::None;
+                    }
+                    let (na, nb) = (section_node[a as usize], section_node[b as usize]);
+                    let ta = (la.b - la.a).normalize();
+                    let tb = (lb.b - lb.a).normalize();
+                    if ta.dot(&tb).abs() >= cos_parallel {
+                        return PairResponse::Share(na, nb);
+                    }
+                    let c = sa.shape.closest_points(&sb.shape);
                     let d = c.on_b - c.on_a;
                     let dist = d.norm();
                     let overlap = la.radius + lb.radius - dist;
                     if overlap > 0.0 && dist > 1e-9 {
-                        let n = d / dist;
+                        PairResponse::Push(na, nb, d * (0.5 * overlap / dist))
+                    } else {
+                        PairResponse::None
+                    }
+                })
+                .collect_into_vec(&mut self.pair_responses);
+            self.corrections.clear();
+            for r in &self.pair_responses {
+                match *r {
+                    PairResponse::None => {}
+                    PairResponse::Share(a, b) => {
+                        stats.hair_contacts += 1;
+                        // The mean never raises the sum of squared rates: no energy is added.
+                        let (a, b) = (a as usize, b as usize);
+                        let mean_t =
+                            0.5 * (self.state.omega_theta()[a] + self.state.omega_theta()[b]);
+                        let mean_p = 0.5 * (self.state.omega_phi()[a] + self.state.omega_phi()[b]);
+                        self.state.omega_theta_mut()[a] = mean_t;
+                        self.state.omega_theta_mut()[b] = mean_t;
+                        self.state.omega_phi_mut()[a] = mean_p;
+                        self.state.omega_phi_mut()[b] = mean_p;
+                    }
+                    PairResponse::Push(a, b, half) => {
+                        stats.hair_contacts += 1;
                         self.corrections.push(NodeCorrection {
-                            node: na,
-                            delta: -n * (0.5 * overlap),
+                            node: a,
+                            delta: -half,
                         });
-                        self.corrections.push(NodeCorrection {
-                            node: nb,
-                            delta: n * (0.5 * overlap),
-                        });
+                        self.corrections.push(NodeCorrection { node: b, delta: half });
                     }
                 }
-            }
-            for pair in self.velocity_targets.chunks_exact(2) {
-                let (a, b) = (pair[0].0 as usize, pair[1].0 as usize);
-                let mean_t = 0.5 * (self.state.omega_theta()[a] + self.state.omega_theta()[b]);
-                let mean_p = 0.5 * (self.state.omega_phi()[a] + self.state.omega_phi()[b]);
-                self.state.omega_theta_mut()[a] = mean_t;
-                self.state.omega_theta_mut()[b] = mean_t;
-                self.state.omega_phi_mut()[a] = mean_p;
-                self.state.omega_phi_mut()[b] = mean_p;
             }
             self.state.apply_corrections(&self.corrections)?;
         }
@@ -514,10 +607,15 @@ impl Simulation {
         Ok(stats)
     }
 
-    /// Pushes every front node out of the body, removes its velocity into the body and applies
-    /// friction; in the first `depenetration_steps` steps the push is spread over the remaining
-    /// steps so hair that starts inside comes out gently. Returns the contacts and the deepest
-    /// remaining penetration of a node centre.
+    /// The hard constraint (Kurihara et al. §4's reaction constraint, made positional): every
+    /// front node closer to the body than its radius is moved out along the body's normal and
+    /// loses its velocity into the body, with friction. The node stays on the sphere about the
+    /// node before it, so a segment hanging straight into a surface swings out of it instead of
+    /// being re-aimed along itself. In the first `depenetration_steps` steps the push is spread
+    /// over the remaining steps, so hair that starts inside comes out gently. Passes repeat on
+    /// the skeletons they moved until none is in contact or [`BODY_PASSES`] have run; the last
+    /// detection measures what remains. Returns the nodes in contact on the first pass and the
+    /// deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
             return Ok((0, 0.0));
@@ -530,85 +628,95 @@ impl Simulation {
         };
         let method = self.scene.collision.method;
         let friction = self.scene.collision.friction;
+        self.body_nodes.clear();
+        for &n in &self.front_nodes {
+            let id = SkeletonId(n);
+            if !self.state.is_active(id) {
+                // Frozen by localization: it has not moved since it was last resolved.
+                continue;
+            }
+            let r = self.state.nodes(id);
+            let skip = usize::from(!self.state.is_free(id));
+            let radius = self.state.radius()[r.start];
+            for i in r.start + skip..r.end {
+                self.body_nodes.push(BodyNode {
+                    node: i as u32,
+                    prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
+                    skeleton: n,
+                    radius,
+                });
+            }
+        }
         let mut contacts = 0;
         let mut deepest: Real = 0.0;
-        // Nodes to test: the front's non-root nodes (free roots too).
-        for pass in 0..3 {
+        for pass in 0..=BODY_PASSES {
             let positions = self.state.positions();
-            let nodes: Vec<(u32, Real)> = self
-                .front_nodes
-                .iter()
-                .flat_map(|&n| {
-                    let r = self.state.nodes(SkeletonId(n));
-                    let skip = usize::from(!self.state.is_free(SkeletonId(n)));
-                    let radius = self.state.radius()[r.start];
-                    (r.start + skip..r.end).map(move |i| (i as u32, radius))
-                })
-                .collect();
-            self.body_hits.clear();
-            nodes
+            self.body_nodes
                 .par_iter()
-                .map(|&(i, radius)| {
-                    let p = positions[i as usize];
-                    if !body.near.is_near(&p) {
-                        return None;
-                    }
-                    let hit = match (method, &body.maps) {
-                        (CollisionMethod::Maps, Some(maps)) => {
-                            maps.lookup(&p).map(|s| (s.distance, s.normal))
-                        }
-                        _ => body.signed_distance(&p).map(|(d, n, _)| (d, n)),
-                    };
-                    hit.filter(|(d, _)| *d < radius)
+                .map(|bn| {
+                    body.distance(method, &positions[bn.node as usize])
+                        .filter(|(d, _)| *d < bn.radius)
                 })
                 .collect_into_vec(&mut self.body_hits);
             self.corrections.clear();
             self.constraints.clear();
             deepest = 0.0;
-            for (&(i, radius), hit) in nodes.iter().zip(&self.body_hits) {
-                if let Some((d, n)) = hit {
-                    deepest = deepest.max(-d);
-                    self.corrections.push(NodeCorrection {
-                        node: i,
-                        delta: n * ((radius - d) * fraction),
-                    });
-                    self.constraints.push(VelocityConstraint {
-                        node: i,
-                        normal: *n,
-                        friction,
-                    });
+            self.touched.clear();
+            self.touched.resize(self.state.skeleton_count(), false);
+            for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
+                let Some((d, n)) = hit else { continue };
+                deepest = deepest.max(-d);
+                let p = positions[bn.node as usize];
+                let lift = (bn.radius - d) * fraction;
+                let mut target = p + n * lift;
+                if bn.prev != u32::MAX {
+                    let a = positions[bn.prev as usize];
+                    let len = (p - a).norm();
+                    if len > 1e-9 {
+                        let u0 = (p - a) / len;
+                        let c = ((n.dot(&u0) * len + lift) / len).clamp(-1.0, 1.0);
+                        let side = u0 - n * n.dot(&u0);
+                        let side = side
+                            .try_normalize(1e-6)
+                            .unwrap_or_else(|| any_perpendicular(n));
+                        target = a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len;
+                    }
                 }
+                self.corrections.push(NodeCorrection {
+                    node: bn.node,
+                    delta: target - p,
+                });
+                self.constraints.push(VelocityConstraint {
+                    node: bn.node,
+                    normal: *n,
+                    friction,
+                });
+                self.touched[bn.skeleton as usize] = true;
             }
             if pass == 0 {
                 contacts = self.corrections.len();
             }
-            if self.corrections.is_empty() {
-                deepest = 0.0;
+            if self.corrections.is_empty() || pass == BODY_PASSES {
+                if std::env::var_os("HAIR_DEBUG_PEN").is_some() && deepest > 0.001 {
+                    for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
+                        if let Some((d, n)) = hit {
+                            if -d > 0.001 {
+                                let p = positions[bn.node as usize];
+                                let ex = body.signed_distance(&p).map(|x| x.0);
+                                let r = self.state.nodes(SkeletonId(bn.skeleton));
+                                eprintln!("step {} skel {} k {} p {:?} d {d} exact {ex:?} n {:?} prev {:?}", self.steps, bn.skeleton, bn.node as usize - r.start, p, n, positions[bn.prev as usize]);
+                            }
+                        }
+                    }
+                }
                 break;
             }
             self.state.apply_corrections(&self.corrections)?;
             self.state.apply_velocity_constraints(&self.constraints)?;
+            let touched = &self.touched;
+            self.body_nodes.retain(|bn| touched[bn.skeleton as usize]);
         }
-        // Measure after the last pass.
-        let positions = self.state.positions();
-        let remaining = self
-            .front_nodes
-            .par_iter()
-            .map(|&n| {
-                let r = self.state.nodes(SkeletonId(n));
-                (r.start + 1..r.end)
-                    .filter(|&i| body.near.is_near(&positions[i]))
-                    .filter_map(|i| match (method, &body.maps) {
-                        (CollisionMethod::Maps, Some(maps)) => {
-                            maps.lookup(&positions[i]).map(|s| -s.distance)
-                        }
-                        _ => body.signed_distance(&positions[i]).map(|(d, _, _)| -d),
-                    })
-                    .fold(0.0f32, f32::max)
-            })
-            .reduce(|| 0.0, f32::max);
-        let _ = deepest;
-        Ok((contacts, remaining.max(0.0)))
+        Ok((contacts, deepest.max(0.0)))
     }
 
     /// Kinetic energy of the front's nodes (J, head frame).
@@ -683,6 +791,7 @@ impl Simulation {
         let strand_node = &self.strand_node;
         let node_frames = &self.node_frames;
         let local = &self.strand_local;
+        let slot = &self.strand_slot;
         let rot = head.rotation;
         let origin = head.position;
         self.render
@@ -697,7 +806,7 @@ impl Simulation {
                 let mut control = [Point::origin(); 64];
                 let count = p.len().min(per).min(64);
                 for k in 0..count {
-                    control[k] = origin + rot * (p[k].coords + frames[k] * local[s * per + k]);
+                    control[k] = origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
                 }
                 let mut tmp = Vec::with_capacity(verts);
                 catmull_rom(&control[..count], sub, &mut tmp);
@@ -708,11 +817,40 @@ impl Simulation {
     }
 }
 
+/// Detect-and-correct passes of the hard body constraint per step (a final detection follows).
+pub const BODY_PASSES: usize = 8;
+
+/// A node the hard body constraint tests, with the node before it on its skeleton.
+#[derive(Clone, Copy, Debug)]
+struct BodyNode {
+    node: u32,
+    /// The previous node of the skeleton, `u32::MAX` for a free root.
+    prev: u32,
+    skeleton: u32,
+    radius: Real,
+}
+
+/// What the narrow phase decides for one hair-hair pair.
+#[derive(Clone, Copy, Debug)]
+enum PairResponse {
+    /// Not in contact, or both skeletons frozen.
+    None,
+    /// Near-parallel sections in contact: their joints share their rates.
+    Share(u32, u32),
+    /// Crossing sections overlapping: each node moves half the overlap apart.
+    Push(u32, u32, Vector),
+}
+
+fn any_perpendicular(n: &Vector) -> Vector {
+    let a = if n.x.abs() < 0.9 { Vector::x() } else { Vector::y() };
+    n.cross(&a).normalize()
+}
+
 fn ms(a: Instant, b: Instant) -> f64 {
     (b - a).as_secs_f64() * 1e3
 }
 
 /// Hierarchy thresholds for a scene: the defaults, which are sized for a human head.
-fn hierarchy_params(_scene: &Scene) -> HierarchyParams {
-    HierarchyParams::default()
+fn hierarchy_params(scene: &Scene) -> HierarchyParams {
+    scene.hierarchy.params()
 }
