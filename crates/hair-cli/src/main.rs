@@ -13,6 +13,7 @@ mod run;
 mod scenes;
 mod stability;
 mod strand_setup;
+mod study;
 
 use clap::{Parser, Subcommand};
 
@@ -42,6 +43,8 @@ enum Command {
     Hierarchy(hierarchy::Args),
     /// Render the procedural head on the GPU and the CPU reference and compare.
     RenderCheck(render_check::Args),
+    /// Every LOD policy and collision method on a scene: cost and error against the finest.
+    Study(study::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -55,6 +58,7 @@ fn main() -> std::process::ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Hierarchy(args) => hierarchy::run(args),
         Command::RenderCheck(args) => render_check::run(args),
+        Command::Study(args) => study::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

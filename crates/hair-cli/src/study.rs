@@ -1,0 +1,315 @@
+//! `hair study SCENE`: every LOD policy (and each body collision method at the finest level)
+//! on one scene, each measured for cost and for its distance from the `fine` run — Ward & Lin's
+//! Tables 1 and 2 with the error they could not quantify.
+//!
+//! The reference is the `fine` policy with the scene's own collision method. Every run starts
+//! from the same scene and seed; after every frame the rendered strands' control vertices are
+//! compared with the reference's at the same frame, and the RMS and the maximum over all frames
+//! and vertices are reported (mm).
+
+use anyhow::{Context, Result};
+use hair::scene::{BodySpec, CollisionMethod};
+use hair::{LodPolicy, Scene, Simulation};
+use plotters::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `hair study`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A built-in scene name or a scene file (.ron).
+    pub scene: String,
+    /// Output directory for study.json, study.csv and study.png.
+    #[arg(long, default_value = "out/study")]
+    pub out: PathBuf,
+    /// Frames per run (default: the scene's own).
+    #[arg(long)]
+    pub frames: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// One configuration's measurements.
+#[derive(Clone, Debug, Serialize)]
+pub struct PolicyResult {
+    /// `policy` or `policy+method`.
+    pub name: String,
+    /// LOD policy.
+    pub policy: String,
+    /// Body collision method.
+    pub collision: String,
+    /// Mean milliseconds per frame.
+    pub ms_per_frame: f64,
+    /// Mean milliseconds per frame integrating.
+    pub ms_dynamics: f64,
+    /// Mean milliseconds per frame in hair-hair and hair-object collision.
+    pub ms_collision: f64,
+    /// Mean skeletons simulated per step.
+    pub mean_skeletons: f64,
+    /// RMS distance of the rendered strands' control vertices from the fine run (mm).
+    pub rms_error_mm: f64,
+    /// Largest such distance (mm).
+    pub max_error_mm: f64,
+    /// Deepest node left inside the body after the depenetration ramp (mm).
+    pub max_penetration_mm: f64,
+    /// Cost relative to the fine run.
+    pub cost_ratio: f64,
+}
+
+/// What `study.json` holds.
+#[derive(Debug, Serialize)]
+pub struct Study {
+    /// Scene name.
+    pub scene: String,
+    /// Frames per run.
+    pub frames: u32,
+    /// Threads.
+    pub threads: usize,
+    /// Strands rendered.
+    pub strands: usize,
+    /// One entry per configuration; the first is the reference.
+    pub policies: Vec<PolicyResult>,
+}
+
+fn method_name(m: CollisionMethod) -> &'static str {
+    match m {
+        CollisionMethod::Field => "field",
+        CollisionMethod::Bvh => "bvh",
+        CollisionMethod::Maps => "maps",
+    }
+}
+
+/// Control vertices (every `sub`-th rendered vertex) of every strand.
+fn snapshot(sim: &Simulation, out: &mut Vec<hair::ssv::Point>) {
+    let g = sim.render_geometry();
+    let sub = g.subdivisions.max(1);
+    out.clear();
+    for s in 0..g.strand_count() {
+        out.extend(g.strand(s).iter().step_by(sub).copied());
+    }
+}
+
+struct Run {
+    result: PolicyResult,
+    frames: Vec<Vec<hair::ssv::Point>>,
+}
+
+fn run_one(
+    scene: &hair::LoadedScene,
+    policy: LodPolicy,
+    method: CollisionMethod,
+    frames: u32,
+    reference: Option<&[Vec<hair::ssv::Point>]>,
+) -> Result<Run> {
+    let mut loaded = scene.clone();
+    loaded.scene.collision.method = method;
+    let mut sim = Simulation::new(&loaded, policy)
+        .with_context(|| format!("building {} with {}", policy.name(), method_name(method)))?;
+    let ramp = u64::from(loaded.scene.collision.depenetration_steps);
+    let (mut total, mut dynamics, mut collision, mut skeletons, mut steps) =
+        (0.0, 0.0, 0.0, 0.0, 0.0f64);
+    let mut max_pen: f64 = 0.0;
+    let (mut sum_sq, mut count, mut max_err) = (0.0f64, 0u64, 0.0f64);
+    let mut kept = Vec::new();
+    let mut snap = Vec::new();
+    for frame in 0..frames {
+        for _ in 0..loaded.scene.substeps {
+            let s = sim.step()?;
+            total += s.ms_total;
+            dynamics += s.ms_dynamics;
+            collision += s.ms_hair_hair + s.ms_hair_object;
+            skeletons += s.skeletons as f64;
+            steps += 1.0;
+            if s.step >= ramp {
+                max_pen = max_pen.max(s.max_penetration_m);
+            }
+        }
+        snapshot(&sim, &mut snap);
+        match reference {
+            Some(r) => {
+                for (a, b) in snap.iter().zip(&r[frame as usize]) {
+                    let d = f64::from((a - b).norm());
+                    sum_sq += d * d;
+                    max_err = max_err.max(d);
+                    count += 1;
+                }
+            }
+            None => kept.push(snap.clone()),
+        }
+    }
+    let f = f64::from(frames.max(1));
+    let name = if method == scene.scene.collision.method {
+        policy.name().to_string()
+    } else {
+        format!("{}+{}", policy.name(), method_name(method))
+    };
+    Ok(Run {
+        result: PolicyResult {
+            name,
+            policy: policy.name().into(),
+            collision: method_name(method).into(),
+            ms_per_frame: total / f,
+            ms_dynamics: dynamics / f,
+            ms_collision: collision / f,
+            mean_skeletons: skeletons / steps.max(1.0),
+            rms_error_mm: if count > 0 {
+                (sum_sq / count as f64).sqrt() * 1e3
+            } else {
+                0.0
+            },
+            max_error_mm: max_err * 1e3,
+            max_penetration_mm: max_pen * 1e3,
+            cost_ratio: 1.0,
+        },
+        frames: kept,
+    })
+}
+
+/// Runs the command.
+pub fn run(args: Args) -> Result<()> {
+    let loaded = Scene::load(&args.scene)?;
+    let frames = args.frames.unwrap_or(loaded.scene.frames).max(1);
+    let threads = args
+        .threads
+        .unwrap_or_else(rayon::current_num_threads)
+        .max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let own = loaded.scene.collision.method;
+    let mut configs: Vec<(LodPolicy, CollisionMethod)> = [
+        LodPolicy::Adaptive,
+        LodPolicy::CoarseStrands,
+        LodPolicy::Clusters,
+        LodPolicy::Strips,
+    ]
+    .into_iter()
+    .map(|p| (p, own))
+    .collect();
+    let mut methods = vec![CollisionMethod::Field, CollisionMethod::Bvh];
+    if matches!(loaded.scene.body, BodySpec::Head { .. }) {
+        methods.push(CollisionMethod::Maps);
+    }
+    if matches!(loaded.scene.body, BodySpec::None) {
+        methods.clear();
+    }
+    configs.extend(
+        methods
+            .into_iter()
+            .filter(|&m| m != own)
+            .map(|m| (LodPolicy::Fine, m)),
+    );
+    let study = pool.install(|| -> Result<Study> {
+        eprintln!("study {}: fine ({}) ...", loaded.scene.name, method_name(own));
+        let reference = run_one(&loaded, LodPolicy::Fine, own, frames, None)?;
+        let fine_ms = reference.result.ms_per_frame.max(1e-9);
+        let strands = reference.frames.first().map_or(0, |f| f.len());
+        let mut policies = vec![reference.result.clone()];
+        for (policy, method) in configs {
+            eprintln!(
+                "study {}: {} ({}) ...",
+                loaded.scene.name,
+                policy.name(),
+                method_name(method)
+            );
+            let mut r = run_one(&loaded, policy, method, frames, Some(&reference.frames))?.result;
+            r.cost_ratio = r.ms_per_frame / fine_ms;
+            policies.push(r);
+        }
+        Ok(Study {
+            scene: loaded.scene.name.clone(),
+            frames,
+            threads,
+            strands,
+            policies,
+        })
+    })?;
+    let json = serde_json::to_string_pretty(&study)?;
+    write(&args.out.join("study.json"), &json)?;
+    let mut csv = String::from(
+        "name,policy,collision,ms_per_frame,ms_dynamics,ms_collision,mean_skeletons,rms_error_mm,max_error_mm,max_penetration_mm,cost_ratio\n",
+    );
+    for p in &study.policies {
+        csv.push_str(&format!(
+            "{},{},{},{:.3},{:.3},{:.3},{:.1},{:.4},{:.4},{:.4},{:.4}\n",
+            p.name,
+            p.policy,
+            p.collision,
+            p.ms_per_frame,
+            p.ms_dynamics,
+            p.ms_collision,
+            p.mean_skeletons,
+            p.rms_error_mm,
+            p.max_error_mm,
+            p.max_penetration_mm,
+            p.cost_ratio
+        ));
+    }
+    write(&args.out.join("study.csv"), &csv)?;
+    chart(&args.out.join("study.png"), &study)?;
+    println!("{json}");
+    Ok(())
+}
+
+fn write(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("drawing the study chart: {e:?}")
+}
+
+/// Error against cost, one labelled point per configuration.
+fn chart(path: &Path, study: &Study) -> Result<()> {
+    crate::chart::register_font();
+    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let max_ms = study
+        .policies
+        .iter()
+        .map(|p| p.ms_per_frame)
+        .fold(1e-3, f64::max);
+    let max_err = study
+        .policies
+        .iter()
+        .map(|p| p.rms_error_mm)
+        .fold(1e-3, f64::max);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "{}: RMS distance from the fine run vs cost ({} frames, {} threads)",
+                study.scene, study.frames, study.threads
+            ),
+            ("sans-serif", 22),
+        )
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..max_ms * 1.15, 0.0..max_err * 1.2)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("ms per frame")
+        .y_desc("RMS error of rendered strands (mm)")
+        .label_style(("sans-serif", 15))
+        .draw()
+        .map_err(err)?;
+    for p in &study.policies {
+        let xy = (p.ms_per_frame, p.rms_error_mm);
+        chart
+            .draw_series(std::iter::once(Circle::new(xy, 6, BLUE.filled())))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("{} (max {:.1} mm)", p.name, p.max_error_mm),
+                (xy.0, xy.1),
+                ("sans-serif", 15).into_font(),
+            )))
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
