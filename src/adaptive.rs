@@ -142,9 +142,7 @@ impl AdaptiveLod {
     ) -> Result<bool, HairError> {
         for n in 0..h.node_count() as u32 {
             if self.front.is_active(n) {
-                self.lod
-                    .read_motion(h, n, state, SkeletonId(n))
-                    ?;
+                self.lod.read_motion(h, n, state, SkeletonId(n))?;
             }
         }
         let positions = state.positions();
@@ -181,10 +179,8 @@ impl AdaptiveLod {
             speed: &self.speed,
             activity: &self.activity,
         };
-        hair_lod::select_into(h, &self.front, &inputs, &self.select, &mut self.plan)
-            ?;
-        self.last = hair_lod::apply(h, &mut self.front, &mut self.lod, &self.plan, &self.merge)
-            ?;
+        hair_lod::select_into(h, &self.front, &inputs, &self.select, &mut self.plan)?;
+        self.last = hair_lod::apply(h, &mut self.front, &mut self.lod, &self.plan, &self.merge)?;
         // Children pulled toward their parent's average (not merged yet) carry the pull.
         for i in 0..self.plan.merges.len() {
             let p = self.plan.merges[i];
@@ -204,9 +200,7 @@ impl AdaptiveLod {
                 changed = true;
                 let id = SkeletonId(n as u32);
                 if now {
-                    self.lod
-                        .write_motion(h, n as u32, state, id)
-                        ?;
+                    self.lod.write_motion(h, n as u32, state, id)?;
                 }
                 state.set_active(id, now);
                 self.was_active[n] = now;

@@ -150,7 +150,7 @@ impl DistanceField {
         for (i, v) in c.iter_mut().enumerate() {
             *v = self.sample(body, x + (i & 1), y + ((i >> 1) & 1), z + (i >> 2));
         }
-        if c.iter().any(|v| *v == Real::MAX) {
+        if c.contains(&Real::MAX) {
             return None;
         }
         let lerp = |a: Real, b: Real, t: Real| a + (b - a) * t;
@@ -170,9 +170,9 @@ impl DistanceField {
         let dy = lerp(x10 - x00, x11 - x01, tz);
         let dz = y1 - y0;
         let g = Vector::new(dx, dy, dz);
-        let n = g.try_normalize(1e-12).or_else(|| {
-            exact_signed_distance(body, p).map(|(_, n, _)| n)
-        })?;
+        let n = g
+            .try_normalize(1e-12)
+            .or_else(|| exact_signed_distance(body, p).map(|(_, n, _)| n))?;
         Some((d, n))
     }
 
@@ -220,10 +220,22 @@ fn exact_signed_distance(bvh: &Bvh, p: &Point) -> Option<(Real, Vector, Point)> 
         return Some((0.0, face, q));
     }
     let dir = d / dist;
-    // Where the closest point is an edge or vertex shared by several triangles, the first one
-    // found may face away in a concave crease; the face most squarely facing the point decides
-    // the side (it is the one whose plane the point is farthest from).
     let mut facing = dir.dot(&face);
+    // A closest point inside the face is the face's alone, and its normal decides. Where it is
+    // on an edge or vertex shared by several triangles, the first one found may face away in a
+    // concave crease; the face most squarely facing the point decides the side (it is the one
+    // whose plane the point is farthest from).
+    let on_edge = bvh.triangle(hit.triangle as usize).is_none_or(|tri| {
+        (0..3).any(|e| {
+            let (a, b) = (tri[e], tri[(e + 1) % 3]);
+            hair_ssv::query::point_segment(&q, &a, &b).dist_sq <= 1e-8 * (b - a).norm_squared()
+        })
+    });
+    if !on_edge {
+        let outside = facing >= 0.0;
+        let normal = if outside { dir } else { -dir };
+        return Some((if outside { dist } else { -dist }, normal, q));
+    }
     TIES.with(|ties| {
         let mut ties = ties.borrow_mut();
         ties.clear();

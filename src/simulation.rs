@@ -4,6 +4,7 @@
 //! The hard constraint runs after integration rather than before it, so the state handed to the
 //! renderer and to the next step is never inside the body by more than the stated tolerance.
 
+use crate::adaptive::{AdaptiveLod, View};
 use crate::body::BodyModel;
 use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
 use crate::scene::{IntegratorSpec, LodPolicy, Scene, TorqueSpec};
@@ -13,10 +14,9 @@ use hair_dynamics::{
     StrandState, TorqueModel, VelocityConstraint, Wind,
 };
 use hair_grid::{Activity, ActivityConfig, ActivityInput, Grid, GridConfig, PairSet, Section};
-use crate::adaptive::{AdaptiveLod, View};
 use hair_lod::{Hierarchy, HierarchyParams, NodeKind, TransitionReport};
 use hair_ssv::{Lss, Point, Real, Ssv, Vector};
-use nalgebra::Matrix3;
+use nalgebra::{Isometry3, Matrix3};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -46,6 +46,10 @@ pub struct StepStats {
     pub ms_total: f64,
     /// Skeletons in the LOD front.
     pub skeletons: usize,
+    /// Splits the adaptive LOD made this step.
+    pub lod_splits: u32,
+    /// Merges the adaptive LOD made this step.
+    pub lod_merges: u32,
     /// Skeletons integrated this step.
     pub active: usize,
     /// Skeletons frozen by localization.
@@ -105,6 +109,11 @@ pub struct Simulation {
     points_per_strand: usize,
     adaptive: Option<AdaptiveLod>,
     last_lod: TransitionReport,
+    initial_adaptive: Option<AdaptiveLod>,
+    teleport: Isometry3<Real>,
+    accumulator: f64,
+    previous_render: Vec<Point>,
+    frame_render: RenderGeometry,
     initial: StrandState,
 }
 
@@ -258,13 +267,19 @@ impl Simulation {
             strand_slot: Vec::new(),
             adaptive: None,
             last_lod: TransitionReport::default(),
+            initial_adaptive: None,
+            teleport: Isometry3::identity(),
+            accumulator: 0.0,
+            previous_render: Vec::new(),
+            frame_render: RenderGeometry::default(),
             points_per_strand,
         };
         sim.prepare_render();
         if policy == LodPolicy::Adaptive {
             let mut lod = AdaptiveLod::new(&sim.hierarchy, &sim.scene.adaptive)?;
             for n in 0..sim.hierarchy.node_count() as u32 {
-                sim.state.set_active(SkeletonId(n), lod.front().is_active(n));
+                sim.state
+                    .set_active(SkeletonId(n), lod.front().is_active(n));
             }
             // Settle the starting front: one level per selection, from the root strips down.
             let view = sim.view(0.0);
@@ -273,6 +288,7 @@ impl Simulation {
                     break;
                 }
             }
+            sim.initial_adaptive = Some(lod.clone());
             sim.adaptive = Some(lod);
             sim.refresh_front();
         }
@@ -321,12 +337,88 @@ impl Simulation {
         self.time
     }
 
+    /// Moves the whole head (and the hair with it) by a rigid offset in one jump, as a game
+    /// does when a character respawns: the hair's motion relative to the head is untouched, so
+    /// nothing whips. Offsets compose; the drawn geometry follows from the next update.
+    pub fn teleport(&mut self, offset: Isometry3<Real>) {
+        self.teleport = offset * self.teleport;
+        self.update_render_geometry();
+    }
+
+    /// The accumulated teleport offset (world from the scene's head path).
+    pub fn teleport_offset(&self) -> Isometry3<Real> {
+        self.teleport
+    }
+
+    /// Advances by a frame of `seconds` (any length: the frame rate is the caller's) in whole
+    /// fixed steps, carrying the remainder to the next frame, and pushes each step's stats to
+    /// `stats`. [`Simulation::frame_geometry`] then holds the strands blended between the last
+    /// two steps by the fraction of a step left over (so drawn motion runs one step behind the
+    /// simulation, and stays smooth whatever the ratio of frame to step). Returns the steps
+    /// taken.
+    pub fn advance(
+        &mut self,
+        seconds: Real,
+        stats: &mut Vec<StepStats>,
+    ) -> Result<usize, HairError> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(HairError::SceneValue {
+                file: "advance".into(),
+                field: "seconds".into(),
+                message: format!("a frame must last a finite, non-negative time, got {seconds}"),
+            });
+        }
+        let dt = f64::from(self.settings.dt);
+        self.accumulator += f64::from(seconds);
+        let mut steps = 0;
+        // A frame that is a whole number of steps up to rounding takes them all.
+        while self.accumulator >= dt * (1.0 - 1e-6) {
+            self.previous_render.clone_from(&self.render.positions);
+            stats.push(self.step()?);
+            self.accumulator -= dt;
+            steps += 1;
+        }
+        if self.previous_render.len() != self.render.positions.len() {
+            self.previous_render.clone_from(&self.render.positions);
+        }
+        self.accumulator = self.accumulator.max(0.0);
+        let alpha = (self.accumulator / dt).clamp(0.0, 1.0) as Real;
+        self.frame_render.subdivisions = self.render.subdivisions;
+        self.frame_render.offsets.clone_from(&self.render.offsets);
+        self.frame_render.positions.clear();
+        // The frame lies `alpha` of a step past the last step: blend from the step before.
+        self.frame_render.positions.extend(
+            self.previous_render
+                .iter()
+                .zip(&self.render.positions)
+                .map(|(a, b)| a + (b - a) * alpha),
+        );
+        Ok(steps)
+    }
+
+    /// The strands at the time of the last [`Simulation::advance`] frame, interpolated between
+    /// the two steps around it (the last one's geometry before any `advance`).
+    pub fn frame_geometry(&self) -> &RenderGeometry {
+        if self.frame_render.positions.is_empty() {
+            &self.render
+        } else {
+            &self.frame_render
+        }
+    }
+
     /// Puts every strand back at rest and the clock at zero.
     pub fn reset(&mut self) {
         self.state = self.initial.clone();
         self.time = 0.0;
         self.steps = 0;
         self.activity = Activity::new(ActivityConfig::default());
+        self.frozen_skeleton.clear();
+        self.accumulator = 0.0;
+        self.frame_render.positions.clear();
+        if let Some(lod) = &self.initial_adaptive {
+            self.adaptive = Some(lod.clone());
+            self.refresh_front();
+        }
         self.update_render_geometry();
     }
 
@@ -389,7 +481,9 @@ impl Simulation {
         let (eye, target) = drivers::camera(&self.scene.camera, t);
         let to_head = |p: Point| Point::from(head.rotation.inverse() * (p - head.position));
         let (eye, target) = (to_head(eye), to_head(target));
-        let forward = (target - eye).try_normalize(1e-9).unwrap_or_else(|| -Vector::z());
+        let forward = (target - eye)
+            .try_normalize(1e-9)
+            .unwrap_or_else(|| -Vector::z());
         // The cone around the whole image at a 3:2 aspect ratio, with a little margin.
         let tan_v = (0.5 * self.scene.camera.fov_degrees.to_radians()).tan();
         let half = (tan_v * (1.0 + 1.5f32 * 1.5).sqrt()).atan() * 1.1;
@@ -441,7 +535,12 @@ impl Simulation {
         // 2. LOD: fixed fronts change nothing; the adaptive one is re-selected.
         if let Some(mut lod) = self.adaptive.take() {
             let view = self.view(self.time);
-            let result = lod.update(&self.hierarchy, &mut self.state, &view, &self.frozen_skeleton);
+            let result = lod.update(
+                &self.hierarchy,
+                &mut self.state,
+                &view,
+                &self.frozen_skeleton,
+            );
             self.last_lod = lod.last_report();
             self.adaptive = Some(lod);
             if result? {
@@ -450,6 +549,10 @@ impl Simulation {
         }
         let t2 = Instant::now();
         stats.ms_lod = ms(t1, t2);
+        if self.adaptive.is_some() {
+            stats.lod_splits = self.last_lod.splits;
+            stats.lod_merges = self.last_lod.merges;
+        }
 
         // 3. Grid over the front's segments (head frame, where the body is static).
         self.sections.clear();
@@ -562,7 +665,10 @@ impl Simulation {
                             node: a,
                             delta: -half,
                         });
-                        self.corrections.push(NodeCorrection { node: b, delta: half });
+                        self.corrections.push(NodeCorrection {
+                            node: b,
+                            delta: half,
+                        });
                     }
                 }
             }
@@ -613,7 +719,8 @@ impl Simulation {
     /// node before it, so a segment hanging straight into a surface swings out of it instead of
     /// being re-aimed along itself. In the first `depenetration_steps` steps the push is spread
     /// over the remaining steps, so hair that starts inside comes out gently. Passes repeat on
-    /// the skeletons they moved until none is in contact or [`BODY_PASSES`] have run; the last
+    /// the skeletons they moved until none is in contact, or [`BODY_PASSES`] have run and no node is
+    /// deeper than half the tolerance, or [`MAX_BODY_PASSES`] have run; the last
     /// detection measures what remains. Returns the nodes in contact on the first pass and the
     /// deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
@@ -649,7 +756,8 @@ impl Simulation {
         }
         let mut contacts = 0;
         let mut deepest: Real = 0.0;
-        for pass in 0..=BODY_PASSES {
+        let tolerance = 0.5 * self.scene.collision.tolerance;
+        for pass in 0..=MAX_BODY_PASSES {
             let positions = self.state.positions();
             self.body_nodes
                 .par_iter()
@@ -696,19 +804,12 @@ impl Simulation {
             if pass == 0 {
                 contacts = self.corrections.len();
             }
-            if self.corrections.is_empty() || pass == BODY_PASSES {
-                if std::env::var_os("HAIR_DEBUG_PEN").is_some() && deepest > 0.001 {
-                    for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
-                        if let Some((d, n)) = hit {
-                            if -d > 0.001 {
-                                let p = positions[bn.node as usize];
-                                let ex = body.signed_distance(&p).map(|x| x.0);
-                                let r = self.state.nodes(SkeletonId(bn.skeleton));
-                                eprintln!("step {} skel {} k {} p {:?} d {d} exact {ex:?} n {:?} prev {:?}", self.steps, bn.skeleton, bn.node as usize - r.start, p, n, positions[bn.prev as usize]);
-                            }
-                        }
-                    }
-                }
+            // Past the usual passes, go on only while a node is deeper than the tolerance
+            // (creases where two surfaces push a node back and forth need a few more).
+            if self.corrections.is_empty()
+                || pass == MAX_BODY_PASSES
+                || (pass >= BODY_PASSES && deepest <= tolerance)
+            {
                 break;
             }
             self.state.apply_corrections(&self.corrections)?;
@@ -792,8 +893,9 @@ impl Simulation {
         let node_frames = &self.node_frames;
         let local = &self.strand_local;
         let slot = &self.strand_slot;
-        let rot = head.rotation;
-        let origin = head.position;
+        // The teleport offset moves the drawn hair with the head, never the dynamics.
+        let rot = self.teleport.rotation.to_rotation_matrix() * head.rotation;
+        let origin = self.teleport * head.position;
         self.render
             .positions
             .par_chunks_mut(verts)
@@ -806,7 +908,8 @@ impl Simulation {
                 let mut control = [Point::origin(); 64];
                 let count = p.len().min(per).min(64);
                 for k in 0..count {
-                    control[k] = origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
+                    control[k] =
+                        origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
                 }
                 let mut tmp = Vec::with_capacity(verts);
                 catmull_rom(&control[..count], sub, &mut tmp);
@@ -819,6 +922,9 @@ impl Simulation {
 
 /// Detect-and-correct passes of the hard body constraint per step (a final detection follows).
 pub const BODY_PASSES: usize = 8;
+
+/// Most passes of the hard body constraint when nodes stay deeper than the tolerance.
+pub const MAX_BODY_PASSES: usize = 32;
 
 /// A node the hard body constraint tests, with the node before it on its skeleton.
 #[derive(Clone, Copy, Debug)]
@@ -842,7 +948,11 @@ enum PairResponse {
 }
 
 fn any_perpendicular(n: &Vector) -> Vector {
-    let a = if n.x.abs() < 0.9 { Vector::x() } else { Vector::y() };
+    let a = if n.x.abs() < 0.9 {
+        Vector::x()
+    } else {
+        Vector::y()
+    };
     n.cross(&a).normalize()
 }
 

@@ -3,20 +3,34 @@
 
 use hair::{LodPolicy, Scene, Simulation};
 
-fn run(name: &str, steps: usize, threads: usize) -> (u64, f64) {
+/// Runs a built-in scene for `steps` steps at `policy` on `threads` threads; checks the state
+/// and the drawn strands are finite and returns the hash after `hash_at` steps, the hash at the
+/// end, the deepest penetration after the depenetration ramp and the scene's tolerance.
+fn run(
+    name: &str,
+    policy: LodPolicy,
+    steps: usize,
+    hash_at: usize,
+    threads: usize,
+) -> (u64, u64, f64, f64) {
     let scene = Scene::load(name).expect("built-in scene");
+    let tolerance = f64::from(scene.scene.collision.tolerance);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .expect("pool");
     pool.install(|| {
-        let mut sim = Simulation::new(&scene, LodPolicy::Fine).expect("scene builds");
+        let mut sim = Simulation::new(&scene, policy).expect("scene builds");
         let ramp = u64::from(scene.scene.collision.depenetration_steps);
         let mut worst: f64 = 0.0;
-        for _ in 0..steps {
+        let mut early = 0;
+        for k in 0..steps {
             let s = sim.step().expect("step stays finite");
             if s.step >= ramp {
                 worst = worst.max(s.max_penetration_m);
+            }
+            if k + 1 == hash_at {
+                early = sim.state_hash();
             }
         }
         let s = sim.state();
@@ -39,17 +53,150 @@ fn run(name: &str, steps: usize, threads: usize) -> (u64, f64) {
                 .iter()
                 .all(|p| p.coords.iter().all(|c| c.is_finite()))
         );
-        (sim.state_hash(), worst)
+        (early, sim.state_hash(), worst, tolerance)
     })
 }
 
+/// Deepest node centre inside the body after the ramp that the pipeline holds today on every
+/// built-in scene (m). The scenes' own tolerance (1 mm) is the goal and is not met yet in
+/// creases (neck and jaw, shoulders) where two surfaces push a node back and forth; this bound
+/// catches a hard constraint that stops working.
+const PENETRATION_BOUND_M: f64 = 0.02;
+
+/// Every built-in scene for 100 steps: finite, every step after the ramp within
+/// [`PENETRATION_BOUND_M`], and the same hash on 1 and 2 threads (compared after 20 steps to
+/// keep the single-threaded half of the suite short).
+fn check_scene(name: &str) {
+    let (h2, _, worst, tolerance) = run(name, LodPolicy::Fine, 100, 20, 2);
+    assert!(
+        worst <= PENETRATION_BOUND_M.max(tolerance),
+        "{name}: a node {worst} m inside the body after the ramp (tolerance {tolerance} m)"
+    );
+    let (h1, _, _, _) = run(name, LodPolicy::Fine, 20, 20, 1);
+    assert_eq!(h1, h2, "{name}: hash differs between 1 and 2 threads");
+}
+
 #[test]
-fn scenes_are_deterministic_across_thread_counts() {
-    for name in ["wind", "torus"] {
-        let (h1, _) = run(name, 20, 1);
-        let (h2, _) = run(name, 20, 2);
-        assert_eq!(h1, h2, "{name}: hash differs between 1 and 2 threads");
+fn scene_wind() {
+    check_scene("wind");
+}
+
+#[test]
+fn scene_shake() {
+    check_scene("shake");
+}
+
+#[test]
+fn scene_torus() {
+    check_scene("torus");
+}
+
+#[test]
+fn scene_zoom() {
+    check_scene("zoom");
+}
+
+#[test]
+fn scene_bristles() {
+    check_scene("bristles");
+}
+
+#[test]
+fn scene_wardlin() {
+    check_scene("wardlin");
+}
+
+#[test]
+fn scene_sintel() {
+    check_scene("sintel");
+}
+
+#[test]
+fn adaptive_policy_is_deterministic_and_coarser_than_fine() {
+    let (a1, _, _, _) = run("wardlin", LodPolicy::Adaptive, 8, 8, 1);
+    let (a2, _, _, _) = run("wardlin", LodPolicy::Adaptive, 8, 8, 2);
+    assert_eq!(a1, a2, "adaptive: hash differs between 1 and 2 threads");
+    let scene = Scene::load("wardlin").unwrap();
+    let sim = Simulation::new(&scene, LodPolicy::Adaptive).unwrap();
+    let fine = Simulation::new(&scene, LodPolicy::Fine).unwrap();
+    let (n_adaptive, n_fine) = (sim.front_nodes().len(), fine.front_nodes().len());
+    assert!(
+        n_adaptive < n_fine && n_adaptive > 110,
+        "adaptive front {n_adaptive} skeletons, fine {n_fine}"
+    );
+    // Every strand is drawn, whatever level owns it.
+    assert_eq!(
+        sim.render_geometry().strand_count(),
+        fine.render_geometry().strand_count()
+    );
+}
+
+#[test]
+fn teleport_moves_the_drawing_and_not_the_dynamics() {
+    let scene = Scene::load("bristles").unwrap();
+    let mut a = Simulation::new(&scene, LodPolicy::Fine).unwrap();
+    let mut b = Simulation::new(&scene, LodPolicy::Fine).unwrap();
+    for _ in 0..5 {
+        a.step().unwrap();
+        b.step().unwrap();
     }
+    let jump = nalgebra::Isometry3::new(
+        nalgebra::Vector3::new(3.0, 0.0, -2.0),
+        nalgebra::Vector3::new(0.0, 1.2, 0.0),
+    );
+    b.teleport(jump);
+    for _ in 0..5 {
+        a.step().unwrap();
+        b.step().unwrap();
+    }
+    assert_eq!(
+        a.state_hash(),
+        b.state_hash(),
+        "a teleport changed the dynamics"
+    );
+    let (pa, pb) = (
+        &a.render_geometry().positions,
+        &b.render_geometry().positions,
+    );
+    assert_eq!(pa.len(), pb.len());
+    let worst = pa
+        .iter()
+        .zip(pb)
+        .map(|(p, q)| (jump * p - q).norm())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 1e-4,
+        "drawn strands off the rigid jump by {worst} m"
+    );
+}
+
+#[test]
+fn frames_of_any_length_interpolate_between_fixed_steps() {
+    let scene = Scene::load("bristles").unwrap();
+    let mut sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
+    let dt = sim.dt();
+    let mut stats = Vec::new();
+    // 2.5 steps per frame: 2 then 3 steps.
+    assert_eq!(sim.advance(2.5 * dt, &mut stats).unwrap(), 2);
+    assert_eq!(sim.advance(2.5 * dt, &mut stats).unwrap(), 3);
+    assert_eq!(stats.len(), 5);
+    assert!((sim.time() - 5.0 * dt).abs() < 1e-5);
+    // A short frame takes no step; the next one takes one and lands 0.1 step past it.
+    assert_eq!(sim.advance(0.5 * dt, &mut stats).unwrap(), 0);
+    let before = sim.render_geometry().positions.clone();
+    assert_eq!(sim.advance(0.6 * dt, &mut stats).unwrap(), 1);
+    let after = sim.render_geometry().positions.clone();
+    let frame = &sim.frame_geometry().positions;
+    let alpha = 0.1;
+    let worst = before
+        .iter()
+        .zip(&after)
+        .zip(frame)
+        .map(|((a, b), f)| (a + (b - a) * alpha - f).norm())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "interpolated frame off by {worst} m");
+    assert!(sim.advance(-1.0, &mut stats).is_err());
+    assert!(sim.advance(f32::NAN, &mut stats).is_err());
 }
 
 #[test]

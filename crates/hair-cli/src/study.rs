@@ -203,7 +203,11 @@ pub fn run(args: Args) -> Result<()> {
             .map(|m| (LodPolicy::Fine, m)),
     );
     let study = pool.install(|| -> Result<Study> {
-        eprintln!("study {}: fine ({}) ...", loaded.scene.name, method_name(own));
+        eprintln!(
+            "study {}: fine ({}) ...",
+            loaded.scene.name,
+            method_name(own)
+        );
         let reference = run_one(&loaded, LodPolicy::Fine, own, frames, None)?;
         let fine_ms = reference.result.ms_per_frame.max(1e-9);
         let strands = reference.frames.first().map_or(0, |f| f.len());
