@@ -732,7 +732,7 @@ impl Grid {
         pk.boxes.resize(n, PBox::default());
         pk.covers.resize(n, Cover::default());
         pk.lines.resize(n, [0.0; 8]);
-        let (recs, shapes, order) = (&self.recs, &self.shapes, &pk.order);
+        let (recs, shapes, order, first) = (&self.recs, &self.shapes, &pk.order, &pk.first);
         pk.boxes
             .par_chunks_mut(CHUNK)
             .zip(pk.covers.par_chunks_mut(CHUNK))
@@ -749,6 +749,7 @@ impl Grid {
                     };
                     covers[k] = Cover {
                         lo: r.lo,
+                        first: first[i as usize],
                         mask: r.mask,
                     };
                     lines[k] = line_of(&shapes[i as usize]);

@@ -39,6 +39,8 @@ pub(crate) struct PBox {
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Cover {
     pub lo: [i32; 3],
+    /// Index of the first cell (among the non-empty cells).
+    pub first: u32,
     pub mask: u64,
 }
 
@@ -69,6 +71,8 @@ struct PairChunk {
     pairs: Vec<[u32; 2]>,
     /// The boxes of the current cell by column: min x, y, z, max x, y, z.
     cols: [Vec<f32>; 6],
+    /// One row of box-test results, a byte per box.
+    hits: Vec<u8>,
     /// Candidates (internal indices) waiting for the exact test.
     cand: Vec<[u32; 2]>,
 }
@@ -213,19 +217,25 @@ impl Grid {
         let key = self.cell_keys[c];
         let cell = unpack3(key);
         let skip = self.config.skip_neighbours;
-        let PairChunk { pairs, cols, cand } = chunk;
+        let PairChunk {
+            pairs,
+            cols,
+            hits,
+            cand,
+        } = chunk;
         // Gather the boxes into columns, padded with NaN (which fails every comparison) so that
         // the block test needs no remainder.
-        if hits_len(cols) < m + BLOCK {
+        if hits.len() < m + 4 {
+            hits.resize(m + 4, 0);
             for col in cols.iter_mut() {
-                col.resize(m + BLOCK, f32::NAN);
+                col.resize(m + 4, f32::NAN);
             }
         }
         for col in cols.iter_mut() {
-            col[m..m + BLOCK].fill(f32::NAN);
+            col[m..m + 4].fill(f32::NAN);
         }
         {
-            let [lx, ly, lz, hx, hy, hz] = cols;
+            let [lx, ly, lz, hx, hy, hz] = &mut *cols;
             for (e, &it) in ents.iter().enumerate() {
                 let b = &pk.boxes[it as usize];
                 lx[e] = b.lo[0];
@@ -236,26 +246,42 @@ impl Grid {
                 hz[e] = b.hi[2];
             }
         }
+        let [lx, ly, lz, hx, hy, hz] = &*cols;
         for a in 0..m - 1 {
             let ia = ents[a];
             let ba = &pk.boxes[ia as usize];
-            let abox = [ba.lo[0], ba.lo[1], ba.lo[2], ba.hi[0], ba.hi[1], ba.hi[2]];
-            let mut b0 = a + 1;
-            while b0 < m {
-                let mut bits = u128::from_le_bytes(overlap_block(cols, b0, &abox));
+            // One row of box tests, padded to a multiple of four lanes with the NaN boxes so
+            // that it compiles to packed compares with no remainder: a byte per box, then
+            // scanned four bytes at a time.
+            let b0 = a + 1;
+            let n = (m - b0 + 3) & !3;
+            let (x0, y0, z0) = (&lx[b0..b0 + n], &ly[b0..b0 + n], &lz[b0..b0 + n]);
+            let (x1, y1, z1) = (&hx[b0..b0 + n], &hy[b0..b0 + n], &hz[b0..b0 + n]);
+            let row = &mut hits[..n];
+            for k in 0..n {
+                row[k] = u8::from(
+                    (x0[k] <= ba.hi[0])
+                        & (x1[k] >= ba.lo[0])
+                        & (y0[k] <= ba.hi[1])
+                        & (y1[k] >= ba.lo[1])
+                        & (z0[k] <= ba.hi[2])
+                        & (z1[k] >= ba.lo[2]),
+                );
+            }
+            for (w, word) in row.chunks_exact(4).enumerate() {
+                let mut bits = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
                 while bits != 0 {
-                    let ib = ents[b0 + (bits.trailing_zeros() / 8) as usize];
+                    let ib = ents[b0 + 4 * w + (bits.trailing_zeros() / 8) as usize];
                     bits &= bits - 1;
                     let bb = &pk.boxes[ib as usize];
                     if ba.skeleton == bb.skeleton && ba.segment.abs_diff(bb.segment) <= skip {
                         continue;
                     }
-                    if !self.first_shared(cell, key, ia, ib) {
+                    if !self.first_shared(c as u32, cell, key, ia, ib) {
                         continue;
                     }
                     cand.push([ia, ib]);
                 }
-                b0 += BLOCK;
             }
             if cand.len() >= BATCH {
                 self.finish(cand, pairs, exact);
@@ -279,11 +305,10 @@ impl Grid {
         let margin = self.config.margin;
         let mut blocks = cand.chunks_exact(LANES);
         for block in &mut blocks {
-            let keep = self.exact_lanes(block, margin);
-            for (l, &p) in block.iter().enumerate() {
-                if keep[l] {
-                    pairs.push(orig(p));
-                }
+            let mut keep = self.exact_lanes(block, margin);
+            while keep != 0 {
+                pairs.push(orig(block[keep.trailing_zeros() as usize]));
+                keep &= keep - 1;
             }
         }
         for &p in blocks.remainder() {
@@ -299,12 +324,12 @@ impl Grid {
         cand.clear();
     }
 
-    /// The exact test on eight candidates: hair-ssv's segment-segment kernel run lane-wise on the
+    /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's segment-segment kernel run lane-wise on the
     /// packed lines. It agrees with the scalar kernel up to rounding, so a pair within a rounding
     /// band of the margin (and any pair that is not two LSS) is decided by [`Ssv::distance`]
     /// itself: the result is exactly `distance <= margin`.
     #[inline]
-    fn exact_lanes(&self, block: &[[u32; 2]], margin: Real) -> [bool; LANES] {
+    fn exact_lanes(&self, block: &[[u32; 2]], margin: Real) -> u32 {
         let lines = &self.packed.lines;
         let mut p = [[0.0f32; LANES]; 8];
         let mut q = [[0.0f32; LANES]; 8];
@@ -352,29 +377,38 @@ impl Grid {
             d[l] = (wx * wx + wy * wy + wz * wz).sqrt() - (p[6][l] + q[6][l]);
             band[l] = 1e-5 * p[7][l].max(q[7][l]);
         }
-        let mut keep = [false; LANES];
+        // Bit masks: surely in, and undecided (within the band, or NaN: not two LSS).
+        let (mut sure, mut open) = (0u32, 0u32);
         for l in 0..LANES {
-            // NaN (not two LSS) fails both comparisons and goes to the scalar kernel.
-            keep[l] = if d[l] > margin + band[l] {
-                false
-            } else if d[l] < margin - band[l] {
-                true
-            } else {
-                let [a, b] = block[l];
-                let (i, j) = (self.packed.order[a as usize], self.packed.order[b as usize]);
-                let (i, j) = (i.min(j) as usize, i.max(j) as usize);
-                self.shape_at(i).distance(self.shape_at(j)) <= margin
-            };
+            let inside = d[l] < margin - band[l];
+            let outside = d[l] > margin + band[l];
+            sure |= u32::from(inside) << l;
+            open |= u32::from(!(inside | outside)) << l;
         }
-        keep
+        while open != 0 {
+            let l = open.trailing_zeros() as usize;
+            open &= open - 1;
+            let [a, b] = block[l];
+            let (i, j) = (self.packed.order[a as usize], self.packed.order[b as usize]);
+            let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+            if self.shape_at(i).distance(self.shape_at(j)) <= margin {
+                sure |= 1 << l;
+            }
+        }
+        sure
     }
 
-    /// Whether `cell` (packed: `key`), covered by the sections of internal indices `a` and `b`,
-    /// is the first cell (in key order) that both cover: the cell that reports the pair.
+    /// Whether the cell of index `c` (coordinates `cell`, packed `key`), covered by the sections
+    /// of internal indices `a` and `b`, is the first cell (in key order) that both cover: the
+    /// cell that reports the pair.
     #[inline]
-    fn first_shared(&self, cell: [i32; 3], key: u64, a: u32, b: u32) -> bool {
+    fn first_shared(&self, c: u32, cell: [i32; 3], key: u64, a: u32, b: u32) -> bool {
         let pk = &self.packed;
         let (ca, cb) = (&pk.covers[a as usize], &pk.covers[b as usize]);
+        // The first cell of either: nothing comes before it (half of the box hits).
+        if ca.first == c || cb.first == c {
+            return true;
+        }
         let d = [0, 1, 2].map(|k| cb.lo[k].wrapping_sub(ca.lo[k]));
         if ca.mask != 0 && cb.mask != 0 && d.iter().all(|v| (-3..=3).contains(v)) {
             // Move b's cover into a's frame, dropping the cells that fall outside it; then no
@@ -396,40 +430,6 @@ impl Grid {
             !share_any(before(a), before(b))
         }
     }
-}
-
-/// Boxes per block of the box test.
-const BLOCK: usize = 16;
-
-fn hits_len(cols: &[Vec<f32>; 6]) -> usize {
-    cols[0].len()
-}
-
-/// Byte `l` is 1 when the box `b0 + l` of the columns overlaps `a` (min x, y, z, max x, y, z).
-/// Written lane-wise without branches on fixed-size arrays so that it compiles to packed
-/// compares.
-#[inline(always)]
-fn overlap_block(cols: &[Vec<f32>; 6], b0: usize, a: &[f32; 6]) -> [u8; BLOCK] {
-    let nan = [f32::NAN; BLOCK];
-    let col = |k: usize| -> &[f32; BLOCK] {
-        cols[k]
-            .get(b0..b0 + BLOCK)
-            .and_then(|s| s.try_into().ok())
-            .unwrap_or(&nan)
-    };
-    let (lx, ly, lz, hx, hy, hz) = (col(0), col(1), col(2), col(3), col(4), col(5));
-    let mut r = [0u8; BLOCK];
-    for l in 0..BLOCK {
-        r[l] = u8::from(
-            (lx[l] <= a[3])
-                & (hx[l] >= a[0])
-                & (ly[l] <= a[4])
-                & (hy[l] >= a[1])
-                & (lz[l] <= a[5])
-                & (hz[l] >= a[2]),
-        );
-    }
-    r
 }
 
 /// `KEEP[axis][d + 3]`: the bits of a 4 x 4 x 4 cover (bit `16 x + 4 y + z`) whose coordinate on
