@@ -1,12 +1,13 @@
 //! Hair-hair pairs from the grid (Ward & Lin 2003 §5.3): sections sharing a cell are candidates;
 //! each pair is reported once, in the first cell both cover.
 //!
-//! The search runs on a copy of the section data made at each rebuild ([`Packed`]): sections are
+//! The search runs on a copy of the section data made at each rebuild (`Packed`): sections are
 //! renumbered by their first cell, so that walking the cells in key order touches a sliding window
 //! of nearby memory instead of the whole scene (with the caller's order, a strand order, every
 //! section of a cell is a cache miss). Per cell, the boxes are gathered into columns and tested
-//! eight at a time; a box hit is kept when the cell is the first one both covers (a bit-set test,
-//! [`Grid::first_shared`]); the survivors get the exact SSV test, eight at a time.
+//! a row at a time with packed compares; a box hit is kept when the cell is the first one both
+//! cover (the first cell of either, or a bit-set test,
+//! `Grid::first_shared`); the survivors get the exact SSV test, eight at a time.
 
 use rayon::prelude::*;
 
@@ -145,7 +146,7 @@ fn share_any(a: &[u64], b: &[u64]) -> bool {
     false
 }
 
-/// The [`Line`] of a shape.
+/// The `Line` of a shape.
 pub(crate) fn line_of(shape: &Ssv) -> Line {
     match shape {
         Ssv::Line(l) => {
