@@ -33,17 +33,24 @@ pub(crate) fn floor_i(v: f64) -> i64 {
     if (t as f64) > v { t - 1 } else { t }
 }
 
-/// The parameters `t` in `[t0, t1]` where `p + t d` lies in `[lo, hi]`.
+/// Direction components below this (in cells, over the whole segment) count as zero in the slab
+/// tests: the segment then strays from the tested line by at most this, far below the cover
+/// slack the callers add (1e-3 cell), and the reciprocal stays finite.
+const TINY: f64 = 1e-12;
+
+/// The parameters `t` in `[t0, t1]` where `p + t d` lies in `[lo, hi]`, given `inv = 1 / d` (0
+/// when `|d| <= TINY`). A multiplication by the reciprocal instead of two divisions per slab: the
+/// rounding differs by an ulp, far below the cover slack.
 #[inline]
-fn slab(p: f64, d: f64, lo: f64, hi: f64, t0: f64, t1: f64) -> Option<(f64, f64)> {
-    if d == 0.0 {
+fn slab(p: f64, inv: f64, lo: f64, hi: f64, t0: f64, t1: f64) -> Option<(f64, f64)> {
+    if inv == 0.0 {
         if p >= lo && p <= hi {
             Some((t0, t1))
         } else {
             None
         }
     } else {
-        let (mut s0, mut s1) = ((lo - p) / d, (hi - p) / d);
+        let (mut s0, mut s1) = ((lo - p) * inv, (hi - p) * inv);
         if s0 > s1 {
             std::mem::swap(&mut s0, &mut s1);
         }
@@ -70,13 +77,14 @@ pub(crate) fn segment(
     emit: &mut impl FnMut([i64; 3]),
 ) -> Result<u64, OverLimit> {
     let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let inv = d.map(|v| if v.abs() > TINY { 1.0 / v } else { 0.0 });
     let (x0, x1) = span(a[0], d[0], 0.0, 1.0);
     let i0 = floor_i(x0 - r).max(clip.lo[0]);
     let i1 = floor_i(x1 + r).min(clip.hi[0]);
     let mut count = 0u64;
     for i in i0..=i1 {
         let fi = i as f64;
-        let Some((t0, t1)) = slab(a[0], d[0], fi - r, fi + 1.0 + r, 0.0, 1.0) else {
+        let Some((t0, t1)) = slab(a[0], inv[0], fi - r, fi + 1.0 + r, 0.0, 1.0) else {
             continue;
         };
         let (y0, y1) = span(a[1], d[1], t0, t1);
@@ -84,7 +92,7 @@ pub(crate) fn segment(
         let j1 = floor_i(y1 + r).min(clip.hi[1]);
         for j in j0..=j1 {
             let fj = j as f64;
-            let Some((u0, u1)) = slab(a[1], d[1], fj - r, fj + 1.0 + r, t0, t1) else {
+            let Some((u0, u1)) = slab(a[1], inv[1], fj - r, fj + 1.0 + r, t0, t1) else {
                 continue;
             };
             let (z0, z1) = span(a[2], d[2], u0, u1);

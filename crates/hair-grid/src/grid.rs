@@ -5,6 +5,7 @@ use rayon::prelude::*;
 
 use crate::cell_key::{CellKey, LATTICE_HALF};
 use crate::cover::{self, CellBox};
+use crate::pairs::{Cover, PBox, Packed, line_of};
 use crate::{GridError, Point, Real, Ssv};
 
 /// Sections per cover chunk: the unit of parallel work when inserting, fixed so that the output
@@ -60,20 +61,24 @@ impl Default for GridConfig {
 }
 
 /// Per-section record used by the pair search: the bounding box grown by half the margin and the
-/// rounding slack, and the ids.
+/// rounding slack, the ids, and the cover as a small bit set (so that the pair search can find the
+/// first cell two sections share without reading their key lists).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Rec {
     pub aabb: [Real; 6],
     pub skeleton: u32,
     pub segment: u32,
+    /// Lowest cell of the cover on each axis.
+    pub lo: [i32; 3],
+    /// The cover as a 4 x 4 x 4 bit set from `lo` (bit `16 x + 4 y + z`, so that bit order is key
+    /// order); 0 when the cover spans more than 4 cells on an axis.
+    pub mask: u64,
 }
 
-/// One chunk of sections: their data and their covers, item-major (the packed cell keys of each
-/// section, ascending).
+/// One chunk of sections: their covers, item-major (the packed cell keys of each section,
+/// ascending).
 #[derive(Debug, Default)]
 pub(crate) struct CoverChunk {
-    pub shapes: Vec<Ssv>,
-    pub recs: Vec<Rec>,
     pub keys: Vec<u64>,
     pub start: Vec<u32>,
     scratch: Vec<[i64; 3]>,
@@ -100,10 +105,17 @@ pub struct Grid {
     pub(crate) dims: [u64; 3],
     pub(crate) chunks: Vec<CoverChunk>,
     pub(crate) n_chunks: usize,
+    /// Per-section records and shapes (the first `len` are valid).
+    pub(crate) recs: Vec<Rec>,
+    pub(crate) shapes: Vec<Ssv>,
     entries: usize,
     /// Dense path: after the scatter, `prefix[k]` is the end of box cell `k` in `sorted_items`.
     dense: bool,
     prefix: Vec<u32>,
+    /// Dense path: index among the non-empty cells of each box cell.
+    dense_cell: Vec<u32>,
+    /// Section data in the pair search's order.
+    pub(crate) packed: Packed,
     pub(crate) sorted_items: Vec<u32>,
     /// Packed keys of the non-empty cells, ascending.
     pub(crate) cell_keys: Vec<u64>,
@@ -233,6 +245,35 @@ fn dense_of(k: u64, bo: [u64; 3], dims: [u64; 3]) -> u64 {
         + ((k & MASK21) - bo[2])
 }
 
+/// Lattice coordinates of a packed key.
+#[inline]
+pub(crate) fn unpack3(k: u64) -> [i32; 3] {
+    let c = |v: u64| (v & MASK21) as i64 - LATTICE_HALF;
+    [c(k >> 42) as i32, c(k >> 21) as i32, c(k) as i32]
+}
+
+/// The lowest cell of a cover on each axis and the cover as a 4 x 4 x 4 bit set from it (0 when
+/// it does not fit).
+fn cover_mask(keys: &[u64]) -> ([i32; 3], u64) {
+    let mut lo = [i32::MAX; 3];
+    for &k in keys {
+        let c = unpack3(k);
+        for a in 0..3 {
+            lo[a] = lo[a].min(c[a]);
+        }
+    }
+    let mut mask = 0u64;
+    for &k in keys {
+        let c = unpack3(k);
+        let r = [0, 1, 2].map(|a| c[a].wrapping_sub(lo[a]) as u32);
+        if r.iter().any(|&v| v >= 4) {
+            return (lo, 0);
+        }
+        mask |= 1 << (r[0] * 16 + r[1] * 4 + r[2]);
+    }
+    (lo, mask)
+}
+
 #[inline]
 fn pack_i64(c: [i64; 3]) -> u64 {
     let b = |v: i64| (v + LATTICE_HALF) as u64;
@@ -251,9 +292,13 @@ impl Grid {
             dims: [0; 3],
             chunks: Vec::new(),
             n_chunks: 0,
+            recs: Vec::new(),
+            shapes: Vec::new(),
             entries: 0,
             dense: false,
             prefix: Vec::new(),
+            dense_cell: Vec::new(),
+            packed: Packed::default(),
             sorted_items: Vec::new(),
             cell_keys: Vec::new(),
             cell_start: vec![0],
@@ -298,12 +343,12 @@ impl Grid {
 
     #[inline]
     pub(crate) fn rec(&self, i: usize) -> &Rec {
-        &self.chunks[i / CHUNK].recs[i % CHUNK]
+        &self.recs[i]
     }
 
     #[inline]
     pub(crate) fn shape_at(&self, i: usize) -> &Ssv {
-        &self.chunks[i / CHUNK].shapes[i % CHUNK]
+        &self.shapes[i]
     }
 
     /// The volume of section `i`.
@@ -525,14 +570,18 @@ impl Grid {
         self.n_chunks = n_chunks;
         let limit = u64::from(self.config.max_cells_per_item);
         let clip = CellBox::ALL;
+        if self.recs.len() < sections.len() {
+            self.recs.resize(sections.len(), Rec::default());
+            self.shapes.resize(sections.len(), sections[0].shape);
+        }
         self.chunks[..n_chunks]
             .par_iter_mut()
             .zip(sections.par_chunks(CHUNK))
+            .zip(self.recs.par_chunks_mut(CHUNK))
+            .zip(self.shapes.par_chunks_mut(CHUNK))
             .enumerate()
-            .for_each(|(ci, (chunk, secs))| {
+            .for_each(|(ci, (((chunk, secs), recs), shapes))| {
                 let CoverChunk {
-                    shapes,
-                    recs,
                     keys,
                     start,
                     scratch,
@@ -540,8 +589,6 @@ impl Grid {
                     lo,
                     hi,
                 } = chunk;
-                shapes.clear();
-                recs.clear();
                 keys.clear();
                 start.clear();
                 start.push(0);
@@ -561,9 +608,10 @@ impl Grid {
                         });
                         break;
                     }
-                    shapes.push(s.shape);
+                    shapes[l] = s.shape;
                     let (a, b) = s.shape.aabb();
-                    recs.push(Rec {
+                    let rec = &mut recs[l];
+                    *rec = Rec {
                         aabb: [
                             a.x - slack,
                             a.y - slack,
@@ -574,7 +622,9 @@ impl Grid {
                         ],
                         skeleton: s.skeleton,
                         segment: s.segment,
-                    });
+                        lo: [0; 3],
+                        mask: 0,
+                    };
                     let (v, n, r) = core_in_cells(&s.shape, inv, grow);
                     let (cl, ch) = cell_range(&v[..n], r);
                     for k in 0..3 {
@@ -607,6 +657,8 @@ impl Grid {
                         });
                         break;
                     }
+                    let first = *start.last().unwrap_or(&0) as usize;
+                    (rec.lo, rec.mask) = cover_mask(&keys[first..]);
                     start.push(keys.len() as u32);
                 }
             });
@@ -627,7 +679,93 @@ impl Grid {
         }
         self.entries = self.chunks[..n_chunks].iter().map(|c| c.keys.len()).sum();
         self.sort_entries();
+        self.pack();
         Ok(())
+    }
+
+    /// Copies the section data into the pair search's order (by first cell, then by index; a
+    /// counting sort over the cells) and renumbers the entries.
+    fn pack(&mut self) {
+        let n = self.len;
+        let n_cells = self.cell_keys.len();
+        let chunks = &self.chunks[..self.n_chunks];
+        let pk = &mut self.packed;
+        // Cell index of each section's first cell (`n_cells` for an empty cover).
+        pk.first.resize(n.max(pk.first.len()), 0);
+        let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
+        let dims = self.dims;
+        let (dense, dense_cell, cell_keys) = (self.dense, &self.dense_cell, &self.cell_keys);
+        pk.first[..n]
+            .par_chunks_mut(CHUNK)
+            .zip(chunks.par_iter())
+            .for_each(|(first, ch)| {
+                for (l, f) in first.iter_mut().enumerate() {
+                    let (s, e) = (ch.start[l] as usize, ch.start[l + 1] as usize);
+                    *f = if s == e {
+                        n_cells as u32
+                    } else if dense {
+                        dense_cell[dense_of(ch.keys[s], bo, dims) as usize]
+                    } else {
+                        cell_keys
+                            .binary_search(&ch.keys[s])
+                            .map_or(n_cells as u32, |c| c as u32)
+                    };
+                }
+            });
+        pk.counts.clear();
+        pk.counts.resize(n_cells + 2, 0);
+        for &f in &pk.first[..n] {
+            pk.counts[f as usize + 1] += 1;
+        }
+        for c in 1..pk.counts.len() {
+            pk.counts[c] += pk.counts[c - 1];
+        }
+        pk.order.resize(n, 0);
+        pk.rank.resize(n, 0);
+        for (i, &f) in pk.first[..n].iter().enumerate() {
+            let slot = &mut pk.counts[f as usize];
+            pk.order[*slot as usize] = i as u32;
+            pk.rank[i] = *slot;
+            *slot += 1;
+        }
+        // Gather the data in the new order.
+        pk.boxes.resize(n, PBox::default());
+        pk.covers.resize(n, Cover::default());
+        pk.lines.resize(n, [0.0; 8]);
+        let (recs, shapes, order, first) = (&self.recs, &self.shapes, &pk.order, &pk.first);
+        pk.boxes
+            .par_chunks_mut(CHUNK)
+            .zip(pk.covers.par_chunks_mut(CHUNK))
+            .zip(pk.lines.par_chunks_mut(CHUNK))
+            .zip(order.par_chunks(CHUNK))
+            .for_each(|(((boxes, covers), lines), order)| {
+                for (k, &i) in order.iter().enumerate() {
+                    let r = &recs[i as usize];
+                    boxes[k] = PBox {
+                        lo: [r.aabb[0], r.aabb[1], r.aabb[2]],
+                        hi: [r.aabb[3], r.aabb[4], r.aabb[5]],
+                        skeleton: r.skeleton,
+                        segment: r.segment,
+                    };
+                    covers[k] = Cover {
+                        lo: r.lo,
+                        first: first[i as usize],
+                        mask: r.mask,
+                    };
+                    lines[k] = line_of(&shapes[i as usize]);
+                }
+            });
+        // Renumber the entries.
+        let rank = &pk.rank;
+        pk.items.resize(self.sorted_items.len(), 0);
+        pk.items
+            .par_chunks_mut(1 << 14)
+            .zip(self.sorted_items.par_chunks(1 << 14))
+            .for_each(|(out, inp)| {
+                for (o, &i) in out.iter_mut().zip(inp) {
+                    *o = rank[i as usize];
+                }
+            });
     }
 
     /// Sorts the entries by cell: a parallel counting sort over the dense box of the covers when
@@ -720,7 +858,9 @@ impl Grid {
                 });
             // Non-empty cells.
             let mut prev = 0u32;
+            self.dense_cell.resize(nb, 0);
             for (d, &end) in self.prefix.iter().enumerate() {
+                self.dense_cell[d] = self.cell_keys.len() as u32;
                 if end > prev {
                     let d = d as u64;
                     let z = d % dims[2];

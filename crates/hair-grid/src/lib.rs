@@ -15,6 +15,36 @@
 //! | [`CellKey`] | integer cell coordinates on the global lattice, packed into ordered `u64` keys |
 //! | [`GridError`] | every failure on untrusted input (non-finite coordinates, bad cell size, too many cells) |
 //!
+//! ## How the pair search works, and what it costs
+//!
+//! Cells are `h` = the mean segment length by default ([`GridConfig::cell_size`] overrides it).
+//! A rebuild validates and covers every section in parallel chunks of 1024 (each cover is the
+//! exact set of cells its core reaches, grown by its radius: a slab walk, not the bounding box),
+//! sorts the (cell, section) entries by a parallel counting sort over the box of the covers, then
+//! copies the data the pair search needs into its own order, sections sorted by their first cell
+//! (a second counting sort). That copy is what makes the search fast: walking the cells in key
+//! order then reads a sliding window of nearby memory instead of one cache miss per entry, as the
+//! caller's strand order would give.
+//!
+//! Per cell, the search gathers the boxes into columns and tests each row of pairs with packed
+//! compares; a box hit on the same skeleton within `skip_neighbours` is dropped; otherwise it is
+//! reported only by the first cell (in key order) both sections cover, decided by the cell being
+//! the first of either cover or by a 4 x 4 x 4 bit set of each cover (no key lists, no hash set);
+//! the survivors get the exact LSS-LSS distance eight at a time, and any pair within a rounding
+//! band of the margin (or not two LSS) goes to the scalar `hair-ssv` kernel, so the set is
+//! exactly `Ssv::distance <= margin`. Cells are split into fixed tasks of 256 and the output is
+//! their concatenation in order, so it does not depend on the number of threads.
+//!
+//! Measured on the `hair bench grid` scene (300,000 segments of about 1 cm, radius 0.5 mm, on a
+//! head-sized shell; 865,502 entries, 1.2 M candidates, 199,478 overlapping pairs), one thread,
+//! CPU time on a shared 2-core machine (load about 5): the pair search went from 360 ms to
+//! 165 ms (0.93 G to 0.68 G instructions: most of the gain is fewer cache misses), the rebuild
+//! from 82 ms to 105 ms (the copy into the search order). With 2 threads, `hair bench grid`
+//! now runs 1.6 times faster than the parry3d BVH peer measured in the same run (1.16 before).
+//! Where the time goes: 15.5 M in-cell box tests at the default cell size, 2.6 M box hits through
+//! the neighbour and owner tests, 1.3 M exact tests, and in the rebuild the cover walk and the
+//! two counting sorts.
+//!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
 //! sorted by their keys.

@@ -1,68 +1,81 @@
 //! Hair-hair pairs from the grid (Ward & Lin 2003 §5.3): sections sharing a cell are candidates;
 //! each pair is reported once, in the first cell both cover.
+//!
+//! The search runs on a copy of the section data made at each rebuild (`Packed`): sections are
+//! renumbered by their first cell, so that walking the cells in key order touches a sliding window
+//! of nearby memory instead of the whole scene (with the caller's order, a strand order, every
+//! section of a cell is a cache miss). Per cell, the boxes are gathered into columns and tested
+//! a row at a time with packed compares; a box hit is kept when the cell is the first one both
+//! cover (the first cell of either, or a bit-set test,
+//! `Grid::first_shared`); the survivors get the exact SSV test, eight at a time.
 
 use rayon::prelude::*;
 
-use hair_ssv::{Lss, distance_lss_lss_batch};
-
-use crate::grid::Grid;
+use crate::grid::{Grid, unpack3};
 use crate::{Real, Ssv};
 
 /// Cells handled by one parallel task: fixed, so that the output order does not depend on the
 /// number of threads.
 const CELLS_PER_TASK: usize = 256;
 
+/// Lanes of the box test and of the exact test.
+const LANES: usize = 8;
+
+/// Candidate pairs buffered before the exact test.
+const BATCH: usize = 512;
+
+/// A section's bounding box (grown by half the margin and the rounding slack) and its ids, in the
+/// pair search's order.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub(crate) struct PBox {
+    pub lo: [f32; 3],
+    pub hi: [f32; 3],
+    pub skeleton: u32,
+    pub segment: u32,
+}
+
+/// A section's cover as a bit set: lowest cell on each axis and a 4 x 4 x 4 bit set from it
+/// (bit `16 x + 4 y + z`, so that bit order is key order); `mask` 0 when it does not fit.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Cover {
+    pub lo: [i32; 3],
+    /// Index of the first cell (among the non-empty cells).
+    pub first: u32,
+    pub mask: u64,
+}
+
+/// A section's core for the exact test: `a`, `b - a`, radius, and the largest coordinate
+/// magnitude (at least 1) that scales the rounding band. The radius is NaN for a shape that is
+/// not an LSS (tested by the scalar kernel).
+pub(crate) type Line = [f32; 8];
+
+/// Section data in the pair search's order (by first cell, then by index).
+#[derive(Debug, Default)]
+pub(crate) struct Packed {
+    /// Internal index to section index.
+    pub order: Vec<u32>,
+    /// Section index to internal index.
+    pub rank: Vec<u32>,
+    /// Per entry, in cell order, the internal index of its section.
+    pub items: Vec<u32>,
+    pub boxes: Vec<PBox>,
+    pub covers: Vec<Cover>,
+    pub lines: Vec<Line>,
+    /// Scratch: index of each section's first cell, and counts per cell.
+    pub first: Vec<u32>,
+    pub counts: Vec<u32>,
+}
+
 #[derive(Debug, Default)]
 struct PairChunk {
     pairs: Vec<[u32; 2]>,
-    boxes: Vec<[Real; 6]>,
-    ids: Vec<(u32, u32)>,
-    keys: Vec<u64>,
-    key_start: Vec<u32>,
-    order: Vec<u32>,
-    batch: Vec<(Lss, Lss)>,
-    batch_ids: Vec<[u32; 2]>,
-    dist: Vec<Real>,
-}
-
-/// LSS pairs tested at once by hair-ssv's batched kernel.
-const BATCH: usize = 256;
-
-/// Runs the exact test on the buffered LSS pairs. The batched kernel agrees with the scalar one
-/// up to rounding, so pairs within a rounding band of the margin are decided by the scalar
-/// kernel: the result is exactly [`Ssv::distance`]`<= margin`.
-fn flush(
-    grid: &Grid,
-    batch: &mut Vec<(Lss, Lss)>,
-    ids: &mut Vec<[u32; 2]>,
-    dist: &mut Vec<Real>,
-    pairs: &mut Vec<[u32; 2]>,
-    margin: Real,
-) {
-    dist.clear();
-    dist.resize(batch.len(), 0.0);
-    distance_lss_lss_batch(batch, dist);
-    for ((&d, &[i, j]), (p, q)) in dist.iter().zip(ids.iter()).zip(batch.iter()) {
-        let scale = [p.a, p.b, q.a, q.b]
-            .iter()
-            .flat_map(|v| v.iter())
-            .fold(1.0f32, |m, c| m.max(c.abs()));
-        let band = 1e-5 * scale;
-        let keep = if d > margin + band {
-            false
-        } else if d < margin - band {
-            true
-        } else {
-            grid.shape_at(i as usize)
-                .distance(grid.shape_at(j as usize))
-                <= margin
-        };
-        if keep {
-            pairs.push([i, j]);
-        }
-    }
-    batch.clear();
-    ids.clear();
+    /// The boxes of the current cell by column: min x, y, z, max x, y, z.
+    cols: [Vec<f32>; 6],
+    /// One row of box-test results, a byte per box.
+    hits: Vec<u8>,
+    /// Candidates (internal indices) waiting for the exact test.
+    cand: Vec<[u32; 2]>,
 }
 
 /// A reusable set of section pairs `[i, j]` with `i < j`, filled by [`Grid::candidate_pairs`] or
@@ -133,6 +146,29 @@ fn share_any(a: &[u64], b: &[u64]) -> bool {
     false
 }
 
+/// The `Line` of a shape.
+pub(crate) fn line_of(shape: &Ssv) -> Line {
+    match shape {
+        Ssv::Line(l) => {
+            let scale = [l.a, l.b]
+                .iter()
+                .flat_map(|p| p.iter())
+                .fold(1.0f32, |m, c| m.max(c.abs()));
+            [
+                l.a.x,
+                l.a.y,
+                l.a.z,
+                l.b.x - l.a.x,
+                l.b.y - l.a.y,
+                l.b.z - l.a.z,
+                l.radius,
+                scale,
+            ]
+        }
+        _ => [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f32::NAN, 1.0],
+    }
+}
+
 impl Grid {
     /// Every unique pair of sections that share a cell and whose bounding boxes (grown by the
     /// margin) overlap, skipping same-skeleton neighbours as configured. Contains every pair whose
@@ -155,134 +191,285 @@ impl Grid {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
-        let skip = self.config.skip_neighbours;
-        let margin = self.config.margin;
         out.chunks[..tasks]
             .par_iter_mut()
             .enumerate()
             .for_each(|(t, chunk)| {
-                let PairChunk {
-                    pairs,
-                    boxes,
-                    ids,
-                    keys,
-                    key_start,
-                    order,
-                    batch,
-                    batch_ids,
-                    dist,
-                } = chunk;
-                batch.clear();
-                batch_ids.clear();
-                pairs.clear();
+                chunk.pairs.clear();
+                chunk.cand.clear();
                 let c0 = t * CELLS_PER_TASK;
                 let c1 = (c0 + CELLS_PER_TASK).min(n_cells);
                 for c in c0..c1 {
-                    let items = self.cell_sections_at(c);
-                    let m = items.len();
-                    if m < 2 {
+                    self.cell_pairs(c, chunk, exact);
+                }
+                self.finish(&mut chunk.cand, &mut chunk.pairs, exact);
+            });
+    }
+
+    /// The candidates first reported by cell `c`, into `chunk.cand` (flushed as it fills).
+    #[inline]
+    fn cell_pairs(&self, c: usize, chunk: &mut PairChunk, exact: bool) {
+        let pk = &self.packed;
+        let ents = &pk.items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
+        let m = ents.len();
+        if m < 2 {
+            return;
+        }
+        let key = self.cell_keys[c];
+        let cell = unpack3(key);
+        let skip = self.config.skip_neighbours;
+        let PairChunk {
+            pairs,
+            cols,
+            hits,
+            cand,
+        } = chunk;
+        // Gather the boxes into columns, padded with NaN (which fails every comparison) so that
+        // the block test needs no remainder.
+        if hits.len() < m + 4 {
+            hits.resize(m + 4, 0);
+            for col in cols.iter_mut() {
+                col.resize(m + 4, f32::NAN);
+            }
+        }
+        for col in cols.iter_mut() {
+            col[m..m + 4].fill(f32::NAN);
+        }
+        {
+            let [lx, ly, lz, hx, hy, hz] = &mut *cols;
+            for (e, &it) in ents.iter().enumerate() {
+                let b = &pk.boxes[it as usize];
+                lx[e] = b.lo[0];
+                ly[e] = b.lo[1];
+                lz[e] = b.lo[2];
+                hx[e] = b.hi[0];
+                hy[e] = b.hi[1];
+                hz[e] = b.hi[2];
+            }
+        }
+        let [lx, ly, lz, hx, hy, hz] = &*cols;
+        for a in 0..m - 1 {
+            let ia = ents[a];
+            let ba = &pk.boxes[ia as usize];
+            // One row of box tests, padded to a multiple of four lanes with the NaN boxes so
+            // that it compiles to packed compares with no remainder: a byte per box, then
+            // scanned four bytes at a time.
+            let b0 = a + 1;
+            let n = (m - b0 + 3) & !3;
+            let (x0, y0, z0) = (&lx[b0..b0 + n], &ly[b0..b0 + n], &lz[b0..b0 + n]);
+            let (x1, y1, z1) = (&hx[b0..b0 + n], &hy[b0..b0 + n], &hz[b0..b0 + n]);
+            let row = &mut hits[..n];
+            for k in 0..n {
+                row[k] = u8::from(
+                    (x0[k] <= ba.hi[0])
+                        & (x1[k] >= ba.lo[0])
+                        & (y0[k] <= ba.hi[1])
+                        & (y1[k] >= ba.lo[1])
+                        & (z0[k] <= ba.hi[2])
+                        & (z1[k] >= ba.lo[2]),
+                );
+            }
+            for (w, word) in row.chunks_exact(4).enumerate() {
+                let mut bits = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+                while bits != 0 {
+                    let ib = ents[b0 + 4 * w + (bits.trailing_zeros() / 8) as usize];
+                    bits &= bits - 1;
+                    let bb = &pk.boxes[ib as usize];
+                    if ba.skeleton == bb.skeleton && ba.segment.abs_diff(bb.segment) <= skip {
                         continue;
                     }
-                    let key = self.cell_keys[c];
-                    // Gather the cell's sections into local arrays: boxes, ids, and the cells
-                    // each covers up to this one (enough to find the first shared cell).
-                    boxes.clear();
-                    ids.clear();
-                    keys.clear();
-                    key_start.clear();
-                    key_start.push(0);
-                    for &it in items {
-                        let it = it as usize;
-                        let r = self.rec(it);
-                        boxes.push(r.aabb);
-                        ids.push((r.skeleton, r.segment));
-                        for &k in self.item_keys(it) {
-                            if k >= key {
-                                break;
-                            }
-                            keys.push(k);
-                        }
-                        key_start.push(keys.len() as u32);
+                    if !self.first_shared(c as u32, cell, key, ia, ib) {
+                        continue;
                     }
-                    // Sweep along the axis where the boxes are thinnest relative to their
-                    // spread: sort by the box minimum on it, then pair only boxes that overlap
-                    // on it.
-                    let mut ext = [0.0f32; 3];
-                    let mut lo = [f32::INFINITY; 3];
-                    let mut hi = [f32::NEG_INFINITY; 3];
-                    for bx in boxes.iter() {
-                        for k in 0..3 {
-                            ext[k] += bx[k + 3] - bx[k];
-                            lo[k] = lo[k].min(bx[k]);
-                            hi[k] = hi[k].max(bx[k + 3]);
-                        }
-                    }
-                    let score = |k: usize| ext[k] / (hi[k] - lo[k]).max(f32::MIN_POSITIVE);
-                    let axis = (0..3)
-                        .min_by(|&x, &y| score(x).total_cmp(&score(y)))
-                        .unwrap_or(0);
-                    order.clear();
-                    order.extend(0..m as u32);
-                    order.sort_unstable_by(|&x, &y| {
-                        boxes[x as usize][axis]
-                            .total_cmp(&boxes[y as usize][axis])
-                            .then(x.cmp(&y))
-                    });
-                    for (p, &a) in order.iter().enumerate() {
-                        let a = a as usize;
-                        let ba = boxes[a];
-                        let (ska, sga) = ids[a];
-                        let ka = &keys[key_start[a] as usize..key_start[a + 1] as usize];
-                        let amax = ba[axis + 3];
-                        for &b in &order[p + 1..] {
-                            let b = b as usize;
-                            let bb = &boxes[b];
-                            if bb[axis] > amax {
-                                break;
-                            }
-                            let apart = (ba[0] > bb[3])
-                                | (bb[0] > ba[3])
-                                | (ba[1] > bb[4])
-                                | (bb[1] > ba[4])
-                                | (ba[2] > bb[5])
-                                | (bb[2] > ba[5]);
-                            if apart {
-                                continue;
-                            }
-                            let (skb, sgb) = ids[b];
-                            if ska == skb && sga.abs_diff(sgb) <= skip {
-                                continue;
-                            }
-                            // Reported here only if no earlier cell is shared.
-                            let kb = &keys[key_start[b] as usize..key_start[b + 1] as usize];
-                            if share_any(ka, kb) {
-                                continue;
-                            }
-                            let (i, j) = (items[a].min(items[b]), items[a].max(items[b]));
-                            if exact {
-                                match (self.shape_at(i as usize), self.shape_at(j as usize)) {
-                                    (Ssv::Line(p), Ssv::Line(q)) => {
-                                        batch.push((*p, *q));
-                                        batch_ids.push([i, j]);
-                                        if batch.len() == BATCH {
-                                            flush(self, batch, batch_ids, dist, pairs, margin);
-                                        }
-                                    }
-                                    (p, q) => {
-                                        if p.distance(q) <= margin {
-                                            pairs.push([i, j]);
-                                        }
-                                    }
-                                }
-                                continue;
-                            }
-                            pairs.push([i, j]);
-                        }
-                    }
+                    cand.push([ia, ib]);
                 }
-                if !batch.is_empty() {
-                    flush(self, batch, batch_ids, dist, pairs, margin);
+            }
+            if cand.len() >= BATCH {
+                self.finish(cand, pairs, exact);
+            }
+        }
+    }
+
+    /// Moves the buffered candidates to the output: as they are, or through the exact test.
+    fn finish(&self, cand: &mut Vec<[u32; 2]>, pairs: &mut Vec<[u32; 2]>, exact: bool) {
+        let pk = &self.packed;
+        let order = &pk.order;
+        let orig = |[a, b]: [u32; 2]| {
+            let (i, j) = (order[a as usize], order[b as usize]);
+            [i.min(j), i.max(j)]
+        };
+        if !exact {
+            pairs.extend(cand.iter().map(|&p| orig(p)));
+            cand.clear();
+            return;
+        }
+        let margin = self.config.margin;
+        let mut blocks = cand.chunks_exact(LANES);
+        for block in &mut blocks {
+            let mut keep = self.exact_lanes(block, margin);
+            while keep != 0 {
+                pairs.push(orig(block[keep.trailing_zeros() as usize]));
+                keep &= keep - 1;
+            }
+        }
+        for &p in blocks.remainder() {
+            let [i, j] = orig(p);
+            if self
+                .shape_at(i as usize)
+                .distance(self.shape_at(j as usize))
+                <= margin
+            {
+                pairs.push([i, j]);
+            }
+        }
+        cand.clear();
+    }
+
+    /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's segment-segment kernel run lane-wise on the
+    /// packed lines. It agrees with the scalar kernel up to rounding, so a pair within a rounding
+    /// band of the margin (and any pair that is not two LSS) is decided by [`Ssv::distance`]
+    /// itself: the result is exactly `distance <= margin`.
+    #[inline]
+    fn exact_lanes(&self, block: &[[u32; 2]], margin: Real) -> u32 {
+        let lines = &self.packed.lines;
+        let mut p = [[0.0f32; LANES]; 8];
+        let mut q = [[0.0f32; LANES]; 8];
+        for (l, &[a, b]) in block.iter().enumerate().take(LANES) {
+            let (la, lb) = (&lines[a as usize], &lines[b as usize]);
+            for k in 0..8 {
+                p[k][l] = la[k];
+                q[k][l] = lb[k];
+            }
+        }
+        let mut d = [0.0f32; LANES];
+        let mut band = [0.0f32; LANES];
+        for l in 0..LANES {
+            let (ux, uy, uz) = (p[3][l], p[4][l], p[5][l]);
+            let (vx, vy, vz) = (q[3][l], q[4][l], q[5][l]);
+            let (rx, ry, rz) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
+            let a = ux * ux + uy * uy + uz * uz;
+            let e = vx * vx + vy * vy + vz * vz;
+            let b = ux * vx + uy * vy + uz * vz;
+            let c = ux * rx + uy * ry + uz * rz;
+            let f = vx * rx + vy * ry + vz * rz;
+            let denom = a * e - b * b;
+            let classic = (b * f - c * e) / denom;
+            let (nx, ny, nz) = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx);
+            let (mx, my, mz) = (vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx);
+            let nn = nx * nx + ny * ny + nz * nz;
+            let crossed = (nx * mx + ny * my + nz * mz) / nn;
+            let s0 = if denom > 0.0625 * a * e {
+                classic
+            } else if nn > 0.0 {
+                crossed
+            } else {
+                0.0
+            };
+            let s0 = s0.clamp(0.0, 1.0);
+            let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
+            let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
+            let t = ((b * s0 + f) * inv_e).clamp(0.0, 1.0);
+            let s = ((b * t - c) * inv_a).clamp(0.0, 1.0);
+            let (wx, wy, wz) = (
+                rx + ux * s - vx * t,
+                ry + uy * s - vy * t,
+                rz + uz * s - vz * t,
+            );
+            d[l] = (wx * wx + wy * wy + wz * wz).sqrt() - (p[6][l] + q[6][l]);
+            band[l] = 1e-5 * p[7][l].max(q[7][l]);
+        }
+        // Bit masks: surely in, and undecided (within the band, or NaN: not two LSS).
+        let (mut sure, mut open) = (0u32, 0u32);
+        for l in 0..LANES {
+            let inside = d[l] < margin - band[l];
+            let outside = d[l] > margin + band[l];
+            sure |= u32::from(inside) << l;
+            open |= u32::from(!(inside | outside)) << l;
+        }
+        while open != 0 {
+            let l = open.trailing_zeros() as usize;
+            open &= open - 1;
+            let [a, b] = block[l];
+            let (i, j) = (self.packed.order[a as usize], self.packed.order[b as usize]);
+            let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+            if self.shape_at(i).distance(self.shape_at(j)) <= margin {
+                sure |= 1 << l;
+            }
+        }
+        sure
+    }
+
+    /// Whether the cell of index `c` (coordinates `cell`, packed `key`), covered by the sections
+    /// of internal indices `a` and `b`, is the first cell (in key order) that both cover: the
+    /// cell that reports the pair.
+    #[inline]
+    fn first_shared(&self, c: u32, cell: [i32; 3], key: u64, a: u32, b: u32) -> bool {
+        let pk = &self.packed;
+        let (ca, cb) = (&pk.covers[a as usize], &pk.covers[b as usize]);
+        // The first cell of either: nothing comes before it (half of the box hits).
+        if ca.first == c || cb.first == c {
+            return true;
+        }
+        let d = [0, 1, 2].map(|k| cb.lo[k].wrapping_sub(ca.lo[k]));
+        if ca.mask != 0 && cb.mask != 0 && d.iter().all(|v| (-3..=3).contains(v)) {
+            // Move b's cover into a's frame, dropping the cells that fall outside it; then no
+            // shared cell may come before this one.
+            let kept = cb.mask
+                & KEEP[0][(d[0] + 3) as usize]
+                & KEEP[1][(d[1] + 3) as usize]
+                & KEEP[2][(d[2] + 3) as usize];
+            let sh = d[0] * 16 + d[1] * 4 + d[2];
+            let mb = if sh >= 0 { kept << sh } else { kept >> -sh };
+            let r = [0, 1, 2].map(|k| cell[k].wrapping_sub(ca.lo[k]) as u32);
+            let bit = (r[0] * 16 + r[1] * 4 + r[2]) & 63;
+            (ca.mask & mb) & ((1u64 << bit) - 1) == 0
+        } else {
+            let before = |it: u32| {
+                let k = self.item_keys(pk.order[it as usize] as usize);
+                &k[..k.partition_point(|&x| x < key)]
+            };
+            !share_any(before(a), before(b))
+        }
+    }
+}
+
+/// `KEEP[axis][d + 3]`: the bits of a 4 x 4 x 4 cover (bit `16 x + 4 y + z`) whose coordinate on
+/// `axis` stays in `0..4` when moved by `d`.
+const KEEP: [[u64; 7]; 3] = {
+    let mut t = [[0u64; 7]; 3];
+    let stride = [16u32, 4, 1];
+    let mut axis = 0;
+    while axis < 3 {
+        let mut d = -3i32;
+        while d <= 3 {
+            let mut m = 0u64;
+            let mut bit = 0u32;
+            while bit < 64 {
+                let c = ((bit / stride[axis]) % 4) as i32 + d;
+                if c >= 0 && c < 4 {
+                    m |= 1 << bit;
                 }
-            });
+                bit += 1;
+            }
+            t[axis][(d + 3) as usize] = m;
+            d += 1;
+        }
+        axis += 1;
+    }
+    t
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keep_masks_drop_the_cells_that_leave_the_frame() {
+        // Moving by +1 in z drops z = 3; by -2 in x drops x = 0 and 1.
+        assert_eq!(KEEP[2][4].count_ones(), 48);
+        assert_eq!(KEEP[2][4] & (1 << 3), 0);
+        assert_eq!(KEEP[0][1].count_ones(), 32);
+        assert_eq!(KEEP[0][1] & 0xffff_ffff, 0);
+        assert_eq!(KEEP[1][3], u64::MAX);
     }
 }
