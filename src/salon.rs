@@ -560,7 +560,7 @@ struct Grab {
 
 /// The tools' state during a simulation: the script's cursor, the pressed tools, the per-node
 /// styling factors, the fallen pieces and the grabbed points, and reused scratch buffers.
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct Salon {
     script: ToolScript,
     cursor: usize,
@@ -584,8 +584,10 @@ pub struct Salon {
     grabs: Vec<Grab>,
     forced: Vec<u32>,
     hits: Vec<u32>,
+    cells: Vec<hair_grid::CellKey>,
     section_mark: Vec<bool>,
     bond_keys: Vec<(u32, u32)>,
+    pairs: PairSet,
     bond_count: Vec<u8>,
     points: Vec<Point>,
     corrections: Vec<NodeCorrection>,
@@ -839,6 +841,34 @@ impl Salon {
         (k < state.nodes(id).len()).then_some((id, k))
     }
 
+    /// The live sections whose end control point (at its current position, grown by its
+    /// radius) lies in the cone: candidates from the grid cells the cone covers, then the exact
+    /// point test. Ascending, into `out`.
+    fn sections_in_cone(
+        &mut self,
+        state: &StrandState,
+        inp: &SalonInput<'_>,
+        cone: &Cone,
+        out: &mut Vec<u32>,
+    ) -> Result<(), HairError> {
+        inp.grid
+            .cells_touched_by(&InfluenceVolume::Cone(*cone), &mut self.cells)?;
+        out.clear();
+        for &key in &self.cells {
+            out.extend_from_slice(inp.grid.cell_sections(key));
+        }
+        out.sort_unstable();
+        out.dedup();
+        out.retain(|&sec| {
+            Self::live(state, inp.sections, sec as usize).is_some_and(|(id, k)| {
+                let i = state.nodes(id).start + k;
+                let p = state.positions()[i];
+                cone.contains_point(&p) || cone.distance_to_point(&p) <= state.radius()[i]
+            })
+        });
+        Ok(())
+    }
+
     fn mark_dirty(&mut self, node: u32) {
         if let Some(m) = self.mark.get_mut(node as usize) {
             if !*m {
@@ -867,7 +897,7 @@ impl Salon {
         let st = self.script.settings;
         let dt = inp.dt;
         let mut hits = std::mem::take(&mut self.hits);
-        inp.grid.sections_in(&vol, &mut hits)?;
+        self.sections_in_cone(state, inp, &cone, &mut hits)?;
         self.stats.tool_sections += hits.len();
         let axis = cone.axis.normalize();
         if tool == Tool::Dryer {
@@ -940,7 +970,13 @@ impl Salon {
         }
         self.bond_keys.sort_unstable();
         let limit = st.bonds_per_node.min(255) as u8;
-        for [a, b] in inp.pairs.iter() {
+        // The pipeline's hair-hair pairs, or (hair-hair collision off) the grid's own.
+        let own = inp.pairs.is_empty();
+        if own {
+            inp.grid.overlapping_pairs(&mut self.pairs);
+        }
+        let pairs = std::mem::take(&mut self.pairs);
+        for [a, b] in (if own { &pairs } else { inp.pairs }).iter() {
             let (a, b) = (a as usize, b as usize);
             if !(self.section_mark[a] && self.section_mark[b]) {
                 continue;
@@ -977,6 +1013,7 @@ impl Salon {
             self.bond_count[nb as usize] += 1;
             self.stats.bonds_made += 1;
         }
+        self.pairs = pairs;
         Ok(())
     }
 
@@ -1003,7 +1040,7 @@ impl Salon {
             return Ok(());
         };
         let mut hits = std::mem::take(&mut self.hits);
-        inp.grid.sections_in(&vol, &mut hits)?;
+        self.sections_in_cone(state, inp, &cone, &mut hits)?;
         let axis = cone.axis.normalize();
         let mut best: Option<(u32, u32, Real)> = None;
         let flush = |best: &mut Option<(u32, u32, Real)>, grabs: &mut Vec<Grab>| {
