@@ -27,7 +27,7 @@ use hair_dynamics::{
     Bond, CutPoint, HeadMotion, NodeCorrection, Point, Real, SkeletonId, StrandState, Vector,
     VelocityConstraint,
 };
-use hair_grid::{Cone, Grid, InfluenceVolume, PairSet, Section};
+use hair_grid::{Cone, Grid, InfluenceVolume, Section};
 use hair_lod::Hierarchy;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
@@ -534,7 +534,6 @@ pub(crate) struct SalonInput<'a> {
     pub front: &'a [u32],
     pub grid: &'a Grid,
     pub sections: &'a [Section],
-    pub pairs: &'a PairSet,
     pub body: Option<&'a BodyModel>,
     pub head: &'a HeadMotion,
     /// Simulated time at the end of the step (s).
@@ -587,7 +586,7 @@ pub struct Salon {
     cells: Vec<hair_grid::CellKey>,
     section_mark: Vec<bool>,
     bond_keys: Vec<(u32, u32)>,
-    pairs: PairSet,
+    candidates: Vec<[u32; 2]>,
     bond_count: Vec<u8>,
     points: Vec<Point>,
     corrections: Vec<NodeCorrection>,
@@ -970,18 +969,29 @@ impl Salon {
         }
         self.bond_keys.sort_unstable();
         let limit = st.bonds_per_node.min(255) as u8;
-        // The pipeline's hair-hair pairs, or (hair-hair collision off) the grid's own.
-        let own = inp.pairs.is_empty();
-        if own {
-            inp.grid.overlapping_pairs(&mut self.pairs);
+        // Candidate pairs: sprayed sections sharing a grid cell (each pair once, ascending).
+        self.candidates.clear();
+        for &a in hits {
+            for key in inp.grid.section_cells(a as usize) {
+                for &b in inp.grid.cell_sections(key) {
+                    if b > a && self.section_mark[b as usize] {
+                        self.candidates.push([a, b]);
+                    }
+                }
+            }
         }
-        let pairs = std::mem::take(&mut self.pairs);
-        for [a, b] in (if own { &pairs } else { inp.pairs }).iter() {
+        self.candidates.sort_unstable();
+        self.candidates.dedup();
+        let candidates = std::mem::take(&mut self.candidates);
+        for &[a, b] in &candidates {
             let (a, b) = (a as usize, b as usize);
-            if !(self.section_mark[a] && self.section_mark[b]) {
+            if inp.sections[a].skeleton == inp.sections[b].skeleton {
                 continue;
             }
-            if inp.sections[a].skeleton == inp.sections[b].skeleton {
+            // In contact now: the sections' swept volumes overlap.
+            let (sa, sb) = (&inp.sections[a].shape, &inp.sections[b].shape);
+            let c = sa.closest_points(sb);
+            if (c.on_b - c.on_a).norm() > sa.radius() + sb.radius() {
                 continue;
             }
             let (Some((ia, ka)), Some((ib, kb))) = (
@@ -1013,7 +1023,7 @@ impl Salon {
             self.bond_count[nb as usize] += 1;
             self.stats.bonds_made += 1;
         }
-        self.pairs = pairs;
+        self.candidates = candidates;
         Ok(())
     }
 

@@ -522,7 +522,6 @@ impl Simulation {
                 front: &self.front_nodes,
                 grid: &self.grid,
                 sections: &self.sections,
-                pairs: &self.pairs,
                 body: self.body.as_ref(),
                 head: &env.head,
                 time: self.time + self.settings.dt,
