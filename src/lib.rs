@@ -42,6 +42,9 @@ mod simulation;
 pub use body::{BodyModel, wrinkled_torus};
 pub use error::HairError;
 pub use render_geometry::RenderGeometry;
-pub use salon::{Pose, PoseKey, Salon, SalonError, SalonSettings, SalonStats, Tool, ToolAction, ToolEvent, ToolScript};
+pub use salon::{
+    Pose, PoseKey, Salon, SalonError, SalonSettings, SalonStats, Tool, ToolAction, ToolEvent,
+    ToolScript,
+};
 pub use scene::{LoadedScene, LodPolicy, Scene};
 pub use simulation::{Simulation, StepStats};

@@ -240,7 +240,9 @@ pub struct ToolScript {
 #[non_exhaustive]
 pub enum SalonError {
     /// An event comes before the one listed ahead of it.
-    #[error("tool event {index} ({tool} at t = {time} s) is out of time order: the previous event is at t = {previous} s")]
+    #[error(
+        "tool event {index} ({tool} at t = {time} s) is out of time order: the previous event is at t = {previous} s"
+    )]
     OutOfOrder {
         /// Index of the event in the script.
         index: usize,
@@ -395,8 +397,7 @@ impl ToolScript {
                     format!("must be non-negative and finite, got {}", e.reach),
                 ));
             }
-            if !(e.angle.is_finite() && e.angle >= 0.0 && e.angle < core::f32::consts::FRAC_PI_2)
-            {
+            if !(e.angle.is_finite() && e.angle >= 0.0 && e.angle < core::f32::consts::FRAC_PI_2) {
                 return Err(bad(
                     "angle",
                     format!("must be in [0, pi/2) rad, got {}", e.angle),
@@ -819,7 +820,10 @@ impl Salon {
             .unwrap_or_else(|| -Vector::z());
         if e.tool == Tool::Scissors {
             let up = inv * vec3(&pose.up);
-            let side = up.cross(&dir).try_normalize(1e-12).unwrap_or_else(Vector::x);
+            let side = up
+                .cross(&dir)
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector::x);
             let (s, c) = e.angle.sin_cos();
             InfluenceVolume::Triangle([
                 apex,
@@ -1136,7 +1140,10 @@ impl Salon {
                 continue;
             };
             let r = state.nodes(id);
-            let (a, b) = (state.positions()[r.start + k - 1], state.positions()[r.start + k]);
+            let (a, b) = (
+                state.positions()[r.start + k - 1],
+                state.positions()[r.start + k],
+            );
             let Some(t) = segment_triangle(&a, &b, &tri) else {
                 continue;
             };
@@ -1383,7 +1390,13 @@ impl Salon {
             return;
         }
         let sub = out.subdivisions.max(1);
-        let verts_of = |n: usize| if sub <= 1 || n < 2 { n } else { sub * (n - 1) + 1 };
+        let verts_of = |n: usize| {
+            if sub <= 1 || n < 2 {
+                n
+            } else {
+                sub * (n - 1) + 1
+            }
+        };
         // Compact: strand s keeps the vertices of its live control points.
         let strands = out.strand_count();
         let mut write = 0usize;
@@ -1459,10 +1472,18 @@ mod tests {
             Point::new(1.0, 0.0, 0.0),
             Point::new(0.0, 0.0, 1.0),
         ];
-        let t = segment_triangle(&Point::new(0.2, 1.0, 0.2), &Point::new(0.2, -3.0, 0.2), &tri);
+        let t = segment_triangle(
+            &Point::new(0.2, 1.0, 0.2),
+            &Point::new(0.2, -3.0, 0.2),
+            &tri,
+        );
         assert_eq!(t, Some(0.25));
         assert_eq!(
-            segment_triangle(&Point::new(2.0, 1.0, 2.0), &Point::new(2.0, -1.0, 2.0), &tri),
+            segment_triangle(
+                &Point::new(2.0, 1.0, 2.0),
+                &Point::new(2.0, -1.0, 2.0),
+                &tri
+            ),
             None
         );
         assert_eq!(

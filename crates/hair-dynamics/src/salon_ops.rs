@@ -137,18 +137,23 @@ impl StrandState {
         } else {
             (self.length[o + k + 1], self.rest_length[o + k + 1])
         };
-        let cut_pos = self.positions[o + k - 1] + (self.positions[o + k] - self.positions[o + k - 1]) * t;
+        let cut_pos =
+            self.positions[o + k - 1] + (self.positions[o + k] - self.positions[o + k - 1]) * t;
         let cut_vel =
             self.velocities[o + k - 1] + (self.velocities[o + k] - self.velocities[o + k - 1]) * t;
-        let cut_rest =
-            self.rest_points[o + k - 1] + (self.rest_points[o + k] - self.rest_points[o + k - 1]) * t;
+        let cut_rest = self.rest_points[o + k - 1]
+            + (self.rest_points[o + k] - self.rest_points[o + k - 1]) * t;
         // Water of the cut segment's end node, shared between the pieces.
         let w = self.wetness[o + k];
         let (w_keep, w_fall_root, w_fall_first) = if t < 1.0 {
             (t * w, 0.0, w - t * w)
         } else {
             let right = self.length[o + k + 1];
-            let share = if lk + right > 0.0 { lk / (lk + right) } else { 0.5 };
+            let share = if lk + right > 0.0 {
+                lk / (lk + right)
+            } else {
+                0.5
+            };
             (share * w, w - share * w, self.wetness[o + k + 1])
         };
         let mut fallen = None;
@@ -182,7 +187,11 @@ impl StrandState {
             let m = s2.len();
             // Node 0 (root) and node 1: the first joint is free and starts unbent in `frame`.
             for j in 0..m {
-                let src = if j == 0 { o + k } else { o + first_source + j - 1 };
+                let src = if j == 0 {
+                    o + k
+                } else {
+                    o + first_source + j - 1
+                };
                 let i = b + j;
                 if j >= 2 {
                     self.theta[i] = self.theta[src];
@@ -200,7 +209,11 @@ impl StrandState {
                     self.omega_phi[i] = 0.0;
                     self.rest_theta[i] = 0.0;
                     self.rest_phi[i] = 0.0;
-                    let (l, rl) = if j == 0 { (0.0, 0.0) } else { (first_len, first_rest) };
+                    let (l, rl) = if j == 0 {
+                        (0.0, 0.0)
+                    } else {
+                        (first_len, first_rest)
+                    };
                     self.length[i] = l;
                     self.rest_length[i] = rl;
                 }
@@ -209,7 +222,11 @@ impl StrandState {
                 self.k_stretch[i] = self.k_stretch[src];
                 self.damping[i] = if j == 0 { 0.0 } else { self.damping[src] };
                 self.radius[i] = self.radius[src];
-                self.rest_points[i] = if j == 0 { cut_rest } else { self.rest_points[src] };
+                self.rest_points[i] = if j == 0 {
+                    cut_rest
+                } else {
+                    self.rest_points[src]
+                };
                 self.external_force[i] = Vector::zeros();
                 self.wetness[i] = if j == 0 {
                     w_fall_root
@@ -284,13 +301,21 @@ impl StrandState {
         let mut goal = target;
         let d = goal - root;
         let dn = d.norm();
-        if dn > reach && dn > 0.0 {
-            goal = root + d * (reach / dn);
-        }
         scratch.clear();
         scratch.extend_from_slice(&self.positions[r.clone()]);
         let len = &self.length[r.clone()];
-        for _ in 0..12 {
+        let straight = dn >= reach && dn > 0.0;
+        if straight {
+            // At or past its reach: the hair above the node is pulled straight towards the target.
+            goal = root + d * (reach / dn);
+            let dir = d / dn;
+            let mut arc = 0.0;
+            for i in 1..=j {
+                arc += len[i];
+                scratch[i] = root + dir * arc;
+            }
+        }
+        for _ in 0..if straight { 0 } else { 32 } {
             // Backward: from the goal to the root.
             scratch[j] = goal;
             for i in (0..j).rev() {

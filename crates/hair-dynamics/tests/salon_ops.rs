@@ -55,9 +55,18 @@ fn a_cut_conserves_length_mass_and_water_and_keeps_the_curl() {
     assert_eq!(res.kept, 8);
     assert!(state.nodes(fallen).len() >= 2 && state.nodes(id).len() >= 2);
     let after = totals(&state, &[id, fallen]);
-    assert!((before.0 - after.0).abs() < 1e-6, "length {before:?} {after:?}");
-    assert!((before.1 - after.1).abs() < 1e-9, "mass {before:?} {after:?}");
-    assert!((before.2 - after.2).abs() < 1e-9, "water {before:?} {after:?}");
+    assert!(
+        (before.0 - after.0).abs() < 1e-6,
+        "length {before:?} {after:?}"
+    );
+    assert!(
+        (before.1 - after.1).abs() < 1e-9,
+        "mass {before:?} {after:?}"
+    );
+    assert!(
+        (before.2 - after.2).abs() < 1e-9,
+        "water {before:?} {after:?}"
+    );
     // S1 ends and S2 starts at the same point, on the original segment.
     let end = state.positions()[state.nodes(id).end - 1];
     let start = state.positions()[state.nodes(fallen).start];
@@ -80,12 +89,7 @@ fn a_cut_conserves_length_mass_and_water_and_keeps_the_curl() {
 fn a_cut_at_the_root_leaves_a_stub_and_at_the_tip_cuts_nothing() {
     let (state, id) = curly(8);
     let len = &state.length()[state.nodes(id)];
-    let root = CutPoint {
-        segment: 1,
-        t: 0.0,
-    }
-    .snapped(len, 1e-3)
-    .unwrap();
+    let root = CutPoint { segment: 1, t: 0.0 }.snapped(len, 1e-3).unwrap();
     assert_eq!(root.segment, 1);
     assert!(root.t > 0.0 && root.t < 1.0);
     let tip = CutPoint {
@@ -110,7 +114,9 @@ fn a_cut_at_the_root_leaves_a_stub_and_at_the_tip_cuts_nothing() {
 #[test]
 fn a_falling_piece_steps_without_error() {
     let (mut state, id) = curly(12);
-    let res = state.cut(id, CutPoint { segment: 5, t: 0.5 }, true).unwrap();
+    let res = state
+        .cut(id, CutPoint { segment: 5, t: 0.5 }, true)
+        .unwrap();
     let fallen = res.fallen.unwrap();
     let y0 = state.root_position(fallen).y;
     let settings = StepSettings::default();
@@ -127,7 +133,14 @@ fn a_falling_piece_steps_without_error() {
 fn bonds_on_the_fallen_part_follow_it() {
     let (mut state, a) = curly(10);
     let frame = frame_along(-Vector::y());
-    let points = style_points(Point::new(0.01, 0.0, 0.0), &frame, &Style::Straight, 10, 0.3).unwrap();
+    let points = style_points(
+        Point::new(0.01, 0.0, 0.0),
+        &frame,
+        &Style::Straight,
+        10,
+        0.3,
+    )
+    .unwrap();
     let b = state
         .add_skeleton(&SkeletonDesc {
             root: Root::Attached {
@@ -180,7 +193,10 @@ fn a_held_node_never_passes_its_reach_and_keeps_lengths() {
     assert!((got - root).norm() >= reach * 0.99);
     let p = &state.positions()[state.nodes(id)];
     for i in 1..p.len() {
-        assert!(((p[i] - p[i - 1]).norm() - lengths[i]).abs() < 1e-5, "segment {i}");
+        assert!(
+            ((p[i] - p[i - 1]).norm() - lengths[i]).abs() < 1e-5,
+            "segment {i}"
+        );
     }
     assert!(state.hold_node(id, 0, near, &mut scratch).is_err());
     assert!(state.hold_node(id, 12, near, &mut scratch).is_err());
