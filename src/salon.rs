@@ -337,13 +337,13 @@ impl ToolScript {
                 });
             }
         }
-        if !(s.wet_shrink < 1.0) {
+        if s.wet_shrink >= 1.0 {
             return Err(SalonError::Setting {
                 field: "wet_shrink",
                 message: "must be below 1".into(),
             });
         }
-        if !(s.curl_angle > 0.0) {
+        if s.curl_angle <= 0.0 {
             return Err(SalonError::Setting {
                 field: "curl_angle",
                 message: "must be positive".into(),
@@ -873,11 +873,11 @@ impl Salon {
     }
 
     fn mark_dirty(&mut self, node: u32) {
-        if let Some(m) = self.mark.get_mut(node as usize) {
-            if !*m {
-                *m = true;
-                self.dirty.push(node);
-            }
+        if let Some(m) = self.mark.get_mut(node as usize)
+            && !*m
+        {
+            *m = true;
+            self.dirty.push(node);
         }
     }
 
@@ -1347,18 +1347,18 @@ impl Salon {
                     continue;
                 }
                 let radius = state.radius()[i];
-                if let Some((d, n, _)) = body.signed_distance(&p) {
-                    if d < radius {
-                        self.corrections.push(NodeCorrection {
-                            node: i as u32,
-                            delta: n * (radius - d),
-                        });
-                        self.constraints.push(VelocityConstraint {
-                            node: i as u32,
-                            normal: n,
-                            friction: inp.friction,
-                        });
-                    }
+                if let Some((d, n, _)) = body.signed_distance(&p)
+                    && d < radius
+                {
+                    self.corrections.push(NodeCorrection {
+                        node: i as u32,
+                        delta: n * (radius - d),
+                    });
+                    self.constraints.push(VelocityConstraint {
+                        node: i as u32,
+                        normal: n,
+                        friction: inp.friction,
+                    });
                 }
             }
         }

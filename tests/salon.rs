@@ -165,7 +165,7 @@ fn water_is_the_same_on_every_level_and_only_drying_removes_it() {
         max_water = max_water.max(w);
         // Every complete front of the hierarchy holds the same water (what a split or merge sees),
         // counting the fallen pieces once.
-        if step % 30 == 0 {
+        if step.is_multiple_of(30) {
             let s = sim.salon();
             let on_leaves = s.totals(sim.state(), sim.hierarchy(), &leaves).0;
             let on_roots = s.totals(sim.state(), sim.hierarchy(), &roots).0;
