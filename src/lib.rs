@@ -9,6 +9,7 @@
 //! | [`dynamics`], [`ssv`], [`grid`], [`lod`], [`io`] | the layers, re-exported |
 //! | [`Scene`], [`LoadedScene`] | serde scene data (`scenes/*.ron`, `docs/scene-format.md`) |
 //! | [`Simulation`], [`StepStats`] | the per-step pipeline and what each step cost |
+//! | [`salon`]: [`ToolEvent`], [`ToolScript`], [`Salon`] | salon tools (water, spray, mousse, dryer, grab, scissors) driven by a replayable timeline of events |
 //! | [`BodyModel`] | the procedural head, a wrinkled torus or an OBJ, with its BVH |
 //!
 //! ```no_run
@@ -35,11 +36,16 @@ pub mod drivers;
 mod error;
 pub mod hairstyle;
 mod render_geometry;
+pub mod salon;
 pub mod scene;
 mod simulation;
 
 pub use body::{BodyModel, wrinkled_torus};
 pub use error::HairError;
 pub use render_geometry::RenderGeometry;
+pub use salon::{
+    Pose, PoseKey, Salon, SalonError, SalonSettings, SalonStats, Tool, ToolAction, ToolEvent,
+    ToolScript,
+};
 pub use scene::{LoadedScene, LodPolicy, Scene};
 pub use simulation::{Simulation, StepStats};

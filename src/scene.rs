@@ -45,6 +45,9 @@ pub struct Scene {
     pub wind: WindSpec,
     /// The head's motion.
     pub head_motion: HeadMotionSpec,
+    /// The salon tool script: a timeline of tool events and the tools' settings
+    /// (`docs/salon.md`).
+    pub tools: crate::salon::ToolScript,
 }
 
 impl Default for Scene {
@@ -67,6 +70,7 @@ impl Default for Scene {
             light: LightSpec::default(),
             wind: WindSpec::default(),
             head_motion: HeadMotionSpec::Still,
+            tools: crate::salon::ToolScript::default(),
         }
     }
 }
@@ -539,7 +543,7 @@ pub enum HeadMotionSpec {
 }
 
 /// Names and texts of the built-in scenes, embedded so `hair run NAME` works from anywhere.
-pub const BUILTIN: [(&str, &str); 7] = [
+pub const BUILTIN: [(&str, &str); 8] = [
     ("wind", include_str!("../scenes/wind.ron")),
     ("shake", include_str!("../scenes/shake.ron")),
     ("torus", include_str!("../scenes/torus.ron")),
@@ -547,6 +551,7 @@ pub const BUILTIN: [(&str, &str); 7] = [
     ("bristles", include_str!("../scenes/bristles.ron")),
     ("wardlin", include_str!("../scenes/wardlin.ron")),
     ("sintel", include_str!("../scenes/sintel.ron")),
+    ("salon", include_str!("../scenes/salon.ron")),
 ];
 
 /// A scene with the directory its relative paths resolve against.
@@ -784,6 +789,9 @@ impl Scene {
             finite("head_motion.Shake.amplitude_degrees", &[*amplitude_degrees])?;
             non_negative("head_motion.Shake.frequency", *frequency)?;
         }
+        self.tools
+            .validate()
+            .map_err(|e| bad("tools", &e.to_string()))?;
         Ok(())
     }
 }

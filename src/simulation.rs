@@ -68,6 +68,10 @@ pub struct StepStats {
     pub render_vertices: usize,
     /// FNV-1a hash of the state's float bits.
     pub state_hash: u64,
+    // salon (issue 8): tool counters, flattened into the per-frame metrics.
+    /// Salon tool counters (water, bonds, cuts, fallen pieces, grabbed points).
+    #[serde(flatten)]
+    pub salon: crate::salon::SalonStats,
 }
 
 /// A scene being simulated.
@@ -115,6 +119,8 @@ pub struct Simulation {
     previous_render: Vec<Point>,
     frame_render: RenderGeometry,
     initial: StrandState,
+    // salon (issue 8): the tool script's state.
+    salon: crate::salon::Salon,
 }
 
 fn integrator(spec: IntegratorSpec) -> Integrator {
@@ -273,7 +279,15 @@ impl Simulation {
             previous_render: Vec::new(),
             frame_render: RenderGeometry::default(),
             points_per_strand,
+            salon: crate::salon::Salon::default(),
         };
+        // salon (issue 8): tools over the initial state.
+        sim.salon = crate::salon::Salon::new(
+            &sim.scene.tools,
+            &sim.state,
+            &sim.hierarchy,
+            &sim.node_radius,
+        );
         sim.prepare_render();
         if policy == LodPolicy::Adaptive {
             let mut lod = AdaptiveLod::new(&sim.hierarchy, &sim.scene.adaptive)?;
@@ -315,6 +329,12 @@ impl Simulation {
     /// The hierarchy nodes being simulated.
     pub fn front_nodes(&self) -> &[u32] {
         &self.front_nodes
+    }
+
+    // salon (issue 8): read access to the tools' state.
+    /// The salon tools: pressed tools, grabbed points, fallen pieces, per-node factors.
+    pub fn salon(&self) -> &crate::salon::Salon {
+        &self.salon
     }
 
     /// The body, if any.
@@ -419,6 +439,9 @@ impl Simulation {
             self.adaptive = Some(lod.clone());
             self.refresh_front();
         }
+        // salon (issue 8): back to the start of the script.
+        self.salon
+            .reset(&self.state, &self.hierarchy, &self.node_radius);
         self.update_render_geometry();
     }
 
@@ -559,13 +582,14 @@ impl Simulation {
         self.section_node.clear();
         for &node in &self.front_nodes {
             let r = self.state.nodes(SkeletonId(node));
-            let radius = self.node_radius[node as usize];
             let p = self.state.positions();
+            // salon (issue 8): per-node radius (water thins, mousse thickens).
+            let radius = self.state.radius();
             for (k, i) in (r.start + 1..r.end).enumerate() {
                 self.sections.push(Section {
                     skeleton: node,
                     segment: k as u32,
-                    shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius)),
+                    shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
                 });
                 self.section_node.push(i as u32);
             }
@@ -586,7 +610,8 @@ impl Simulation {
                     dt: self.settings.dt,
                     speeds: &self.speeds,
                     neighbour_forces: &[],
-                    tools: &[],
+                    // salon (issue 8): the pressed tools' areas wake their cells.
+                    tools: self.salon.volumes(),
                 },
             )?;
             self.frozen_skeleton.clear();
@@ -688,6 +713,22 @@ impl Simulation {
         stats.active = front_active;
         stats.dormant = self.front_nodes.len() - front_active;
         let _ = report;
+        // salon (issue 8): the tool script's events and the pressed tools, after the dynamics.
+        stats.salon = self.salon.step(
+            &mut self.state,
+            &crate::salon::SalonInput {
+                hierarchy: &self.hierarchy,
+                front: &self.front_nodes,
+                grid: &self.grid,
+                sections: &self.sections,
+                body: self.body.as_ref(),
+                head: &env.head,
+                time: self.time + self.settings.dt,
+                dt: self.settings.dt,
+                friction: self.scene.collision.friction,
+            },
+        )?;
+        // salon (issue 8) end.
         let t5 = Instant::now();
         stats.ms_dynamics = ms(t4, t5);
 
@@ -703,6 +744,17 @@ impl Simulation {
 
         // 7. Render geometry.
         self.update_render_geometry();
+        // salon (issue 8): cut strands end at the cut; fallen pieces are drawn.
+        self.salon.render(
+            &self.state,
+            &self.hierarchy,
+            &self.strand_node,
+            &self.node_local_start,
+            &self.strand_local,
+            self.points_per_strand,
+            &drivers::head_motion(&self.scene.head_motion, self.time),
+            &mut self.render,
+        );
         let t7 = Instant::now();
         stats.ms_render_geometry = ms(t6, t7);
         stats.render_vertices = self.render.vertex_count();

@@ -79,6 +79,8 @@ pub struct Summary {
     pub tolerance_m: f64,
     /// Hash of the final state's float bits (hex).
     pub state_hash: String,
+    /// Salon tool counters at the end (water, bonds, cuts, fallen pieces, grabbed points).
+    pub salon: hair::SalonStats,
 }
 
 /// Mean milliseconds per frame of each stage.
@@ -208,6 +210,7 @@ pub fn simulate(
             max_penetration_m: max_pen,
             tolerance_m: f64::from(loaded.scene.collision.tolerance),
             state_hash: format!("{:016x}", sim.state_hash()),
+            salon: last.salon,
         };
         Ok((summary, metrics, sim))
     })

@@ -13,6 +13,7 @@
 //! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | five integrators, local or chain torque |
 //! | [`NodeCorrection`], [`VelocityConstraint`] | collision response mapped back to angles |
 //! | [`Bond`] | hairspray bonds between skeletons, with a break distance |
+//! | [`CutPoint`], [`StrandState::cut`], [`StrandState::hold_node`] | salon cuts (the fallen piece becomes a free skeleton) and grabbed control points |
 //! | [`mod@reference`] | f64 single-strand reference and the cantilever elastica |
 //!
 //! ```
@@ -44,6 +45,7 @@ mod error;
 mod integrate;
 pub mod reference;
 mod response;
+mod salon_ops;
 mod state;
 mod strand;
 mod style;
@@ -54,6 +56,7 @@ pub use environment::{Environment, ForceField, HeadMotion, Wind};
 pub use error::DynamicsError;
 pub use integrate::{Integrator, LinearSolver, StepReport, StepSettings, TorqueModel};
 pub use response::{NodeCorrection, VelocityConstraint};
+pub use salon_ops::{CutPoint, CutResult};
 pub use state::{Material, Root, SkeletonDesc, SkeletonId, StrandState};
 pub use style::{Style, style_points};
 

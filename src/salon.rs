@@ -1,0 +1,1524 @@
+//! Salon tools: water, hairspray, mousse, hair dryer, grab and scissors, driven by a timeline of
+//! [`ToolEvent`]s (Ward, Galoppo & Lin, *Interactive Virtual Hair Salon*, §3.1, §4.3-4.4, §6).
+//!
+//! Why a timeline: a styling session is then plain data (the scene's `tools` field, RON), replays
+//! bit for bit, can be edited, and the same event type will carry an interactive window's or a
+//! 6-DOF device's input (press, move, release).
+//!
+//! Each tool has a pose (position, direction, and for scissors an `up` that fixes the blades'
+//! plane) and an area of influence: a cone (apex at the tool, axis along its direction, length
+//! `reach`, cut-off angle `angle`) for water, spray, mousse, dryer and grab, and the triangle
+//! between the open blades for scissors. The sections it touches come from the grid (cells first,
+//! then the exact test), and the cells it touches wake (the volumes are handed to the activity
+//! tracker at the next step).
+//!
+//! Effects act on the front skeletons' control points (a section is the segment that ends at a
+//! control point, so touching a section touches that point) and are then carried to every other
+//! level of the hierarchy, so a level-of-detail change finds them already there (§6.6): the
+//! touched node's per-point wetness, stiffness factor and thickness factor are copied to all its
+//! descendants, and every ancestor takes the strand-weighted mean of its children. Wetness is per
+//! strand (the paper's percentage, in kg of water per skeleton control point): the water of the
+//! hair is `sum over skeletons of strands * wetness`, the same on every front. See `docs/salon.md`.
+
+use crate::HairError;
+use crate::body::BodyModel;
+use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
+use hair_dynamics::{
+    Bond, CutPoint, HeadMotion, NodeCorrection, Point, Real, SkeletonId, StrandState, Vector,
+    VelocityConstraint,
+};
+use hair_grid::{Cone, Grid, InfluenceVolume, Section};
+use hair_lod::Hierarchy;
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// The salon tools.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Tool {
+    /// Wets the hair in its cone: heavier nodes, thinner sections, stretching curls.
+    Water,
+    /// Hairspray: stiffens the springs and bonds sections in contact.
+    Spray,
+    /// Volume mousse: grows the sections' radius.
+    Mousse,
+    /// Hair dryer: a strong force along its direction; dries; pulls bonds apart.
+    Dryer,
+    /// Grab: one control point per skeleton follows the tool.
+    Grab,
+    /// Scissors: cuts the skeletons crossing the triangle between the blades.
+    Scissors,
+}
+
+impl Tool {
+    /// Every tool, in the order they are applied within a step.
+    pub const ALL: [Tool; 6] = [
+        Tool::Water,
+        Tool::Spray,
+        Tool::Mousse,
+        Tool::Dryer,
+        Tool::Grab,
+        Tool::Scissors,
+    ];
+
+    /// A short lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tool::Water => "water",
+            Tool::Spray => "spray",
+            Tool::Mousse => "mousse",
+            Tool::Dryer => "dryer",
+            Tool::Grab => "grab",
+            Tool::Scissors => "scissors",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// What an event does to its tool.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ToolAction {
+    /// Press the button: the tool starts acting at the event's pose (scissors: close the blades
+    /// once, a snip; grab: take one control point per skeleton inside the cone).
+    Press,
+    /// Move a pressed tool to a new pose or path, with the event's strength, reach and angle
+    /// (scissors: another snip there).
+    Move,
+    /// Release the button: the tool stops (grabbed points fall, the dryer's force goes).
+    Release,
+}
+
+/// A tool's pose (world frame).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Pose {
+    /// Tip of the tool (m).
+    pub position: [f32; 3],
+    /// Direction the tool points (not zero; normalised on use).
+    pub direction: [f32; 3],
+    /// Scissors only: the blades open in the plane of `direction` and `up x direction`.
+    pub up: [f32; 3],
+}
+
+impl Default for Pose {
+    fn default() -> Self {
+        Self {
+            position: [0.0; 3],
+            direction: [0.0, 0.0, -1.0],
+            up: [0.0, 1.0, 0.0],
+        }
+    }
+}
+
+/// A later pose of a path: the tool moves linearly (position) and by normalised interpolation
+/// (direction, up) from the previous key, and stays at the last one.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseKey {
+    /// Time (s, absolute; after the event's and the previous key's).
+    pub time: f32,
+    /// The pose at that time.
+    pub pose: Pose,
+}
+
+fn one() -> f32 {
+    1.0
+}
+fn default_reach() -> f32 {
+    0.15
+}
+fn default_angle() -> f32 {
+    0.35
+}
+
+/// One event of a styling session: a tool pressed, moved or released at a time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolEvent {
+    /// When (s); events are in time order.
+    pub time: f32,
+    /// Which tool.
+    pub tool: Tool,
+    /// Press, move or release.
+    pub action: ToolAction,
+    /// Pose at `time` (ignored by `Release`).
+    #[serde(default)]
+    pub pose: Pose,
+    /// Later poses the tool follows while held (until the next event of the same tool).
+    #[serde(default)]
+    pub path: Vec<PoseKey>,
+    /// Strength, a multiple of the tool's nominal effect ([`SalonSettings`]); >= 0.
+    #[serde(default = "one")]
+    pub strength: f32,
+    /// Reach of the cone along its axis, or blade length of the scissors (m, >= 0).
+    #[serde(default = "default_reach")]
+    pub reach: f32,
+    /// Cut-off (half) angle of the cone, or half the opening of the blades (rad, in [0, pi/2)).
+    #[serde(default = "default_angle")]
+    pub angle: f32,
+}
+
+/// Nominal effects of the tools (SI units) and the limits of the cut.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SalonSettings {
+    /// Water added per control point in the water's cone at strength 1 (kg/s).
+    pub water_rate: f32,
+    /// Most water a control point holds, as a multiple of its dry mass.
+    pub saturation: f32,
+    /// Fraction of the radius lost when a control point is saturated (wet hair clumps).
+    pub wet_shrink: f32,
+    /// Axial stiffness of a wet, fully curled segment (N per unit strain); divided by the wet
+    /// fraction and the curl, so wetter and curlier hair stretches more.
+    pub wet_stretch_stiffness: f32,
+    /// Bend (rad) of a rest joint counted as fully curled.
+    pub curl_angle: f32,
+    /// Growth of the spring factor per second under spray at strength 1.
+    pub spray_rate: f32,
+    /// Largest spring factor spray gives.
+    pub max_stiffness: f32,
+    /// Stiffness of a spray bond (N/m).
+    pub bond_stiffness: f32,
+    /// A bond breaks when stretched this far past its rest distance (m).
+    pub bond_break_stretch: f32,
+    /// Most bonds per control point.
+    pub bonds_per_node: u32,
+    /// Growth of the radius factor per second under mousse at strength 1.
+    pub mousse_rate: f32,
+    /// Largest radius factor mousse gives.
+    pub max_thickness: f32,
+    /// Force of the dryer at its nozzle at strength 1 (N per control point), fading to zero at
+    /// its reach.
+    pub dryer_force: f32,
+    /// Water the dryer removes per control point at strength 1 (kg/s).
+    pub dry_rate: f32,
+    /// No piece shorter than this is cut off or left on the scalp (m).
+    pub min_cut_length: f32,
+    /// Fallen pieces entirely below this height (m, head frame) are swept up: no longer
+    /// simulated or drawn (their water and length still count).
+    pub floor_height: f32,
+}
+
+impl Default for SalonSettings {
+    fn default() -> Self {
+        Self {
+            water_rate: 2e-4,
+            saturation: 1.0,
+            wet_shrink: 0.5,
+            wet_stretch_stiffness: 0.5,
+            curl_angle: 0.6,
+            spray_rate: 3.0,
+            max_stiffness: 8.0,
+            bond_stiffness: 0.05,
+            bond_break_stretch: 0.01,
+            bonds_per_node: 2,
+            mousse_rate: 1.0,
+            max_thickness: 3.0,
+            dryer_force: 4e-3,
+            dry_rate: 2e-4,
+            min_cut_length: 2e-3,
+            floor_height: -0.8,
+        }
+    }
+}
+
+/// The scene's tool script: the events of a session and the tools' settings.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ToolScript {
+    /// Events, in time order.
+    pub events: Vec<ToolEvent>,
+    /// Nominal effects and limits.
+    pub settings: SalonSettings,
+}
+
+/// A bad tool script; every message names the event (its index and time).
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum SalonError {
+    /// An event comes before the one listed ahead of it.
+    #[error(
+        "tool event {index} ({tool} at t = {time} s) is out of time order: the previous event is at t = {previous} s"
+    )]
+    OutOfOrder {
+        /// Index of the event in the script.
+        index: usize,
+        /// Its tool.
+        tool: &'static str,
+        /// Its time.
+        time: f32,
+        /// The previous event's time.
+        previous: f32,
+    },
+    /// A value of an event is invalid.
+    #[error("tool event {index} ({tool} at t = {time} s): `{field}` {message}")]
+    Value {
+        /// Index of the event in the script.
+        index: usize,
+        /// Its tool.
+        tool: &'static str,
+        /// Its time.
+        time: f32,
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// A move or release of a tool that is not pressed.
+    #[error("tool event {index} ({tool} at t = {time} s): {action} of a tool that is not pressed")]
+    NotPressed {
+        /// Index of the event in the script.
+        index: usize,
+        /// Its tool.
+        tool: &'static str,
+        /// Its time.
+        time: f32,
+        /// `move` or `release`.
+        action: &'static str,
+    },
+    /// A setting is out of range.
+    #[error("tool settings: `{field}` {message}")]
+    Setting {
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl From<SalonError> for HairError {
+    fn from(e: SalonError) -> Self {
+        HairError::SceneValue {
+            file: "tool script".into(),
+            field: "tools".into(),
+            message: e.to_string(),
+        }
+    }
+}
+
+fn finite3(v: &[f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+fn vec3(v: &[f32; 3]) -> Vector {
+    Vector::new(v[0], v[1], v[2])
+}
+
+impl ToolScript {
+    /// Checks every event and setting: finite poses with non-zero directions (scissors: `up`
+    /// not along the direction), non-negative strength and reach, angles in `[0, pi/2)`, path
+    /// keys after their event and in order, events in time order, and moves and releases only
+    /// of pressed tools.
+    pub fn validate(&self) -> Result<(), SalonError> {
+        let s = &self.settings;
+        for (field, v) in [
+            ("water_rate", s.water_rate),
+            ("saturation", s.saturation),
+            ("wet_shrink", s.wet_shrink),
+            ("wet_stretch_stiffness", s.wet_stretch_stiffness),
+            ("curl_angle", s.curl_angle),
+            ("spray_rate", s.spray_rate),
+            ("max_stiffness", s.max_stiffness),
+            ("bond_stiffness", s.bond_stiffness),
+            ("bond_break_stretch", s.bond_break_stretch),
+            ("mousse_rate", s.mousse_rate),
+            ("max_thickness", s.max_thickness),
+            ("dryer_force", s.dryer_force),
+            ("dry_rate", s.dry_rate),
+            ("min_cut_length", s.min_cut_length),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SalonError::Setting {
+                    field,
+                    message: format!("must be non-negative and finite, got {v}"),
+                });
+            }
+        }
+        if s.wet_shrink >= 1.0 {
+            return Err(SalonError::Setting {
+                field: "wet_shrink",
+                message: "must be below 1".into(),
+            });
+        }
+        if s.curl_angle <= 0.0 {
+            return Err(SalonError::Setting {
+                field: "curl_angle",
+                message: "must be positive".into(),
+            });
+        }
+        if !(s.max_stiffness >= 1.0 && s.max_thickness >= 1.0) {
+            return Err(SalonError::Setting {
+                field: "max_stiffness",
+                message: "max_stiffness and max_thickness must be at least 1".into(),
+            });
+        }
+        if !s.floor_height.is_finite() {
+            return Err(SalonError::Setting {
+                field: "floor_height",
+                message: "must be finite".into(),
+            });
+        }
+        let mut pressed = [false; 6];
+        let mut previous = f32::NEG_INFINITY;
+        for (index, e) in self.events.iter().enumerate() {
+            let tool = e.tool.name();
+            let time = e.time;
+            let bad = |field: &'static str, message: String| SalonError::Value {
+                index,
+                tool,
+                time,
+                field,
+                message,
+            };
+            if !time.is_finite() {
+                return Err(bad("time", "must be finite".into()));
+            }
+            if time < previous {
+                return Err(SalonError::OutOfOrder {
+                    index,
+                    tool,
+                    time,
+                    previous,
+                });
+            }
+            previous = time;
+            if !(e.strength.is_finite() && e.strength >= 0.0) {
+                return Err(bad(
+                    "strength",
+                    format!("must be non-negative and finite, got {}", e.strength),
+                ));
+            }
+            if !(e.reach.is_finite() && e.reach >= 0.0) {
+                return Err(bad(
+                    "reach",
+                    format!("must be non-negative and finite, got {}", e.reach),
+                ));
+            }
+            if !(e.angle.is_finite() && e.angle >= 0.0 && e.angle < core::f32::consts::FRAC_PI_2) {
+                return Err(bad(
+                    "angle",
+                    format!("must be in [0, pi/2) rad, got {}", e.angle),
+                ));
+            }
+            let check_pose = |p: &Pose, field: &'static str| -> Result<(), SalonError> {
+                if !(finite3(&p.position) && finite3(&p.direction) && finite3(&p.up)) {
+                    return Err(bad(field, "must be finite".into()));
+                }
+                let d = vec3(&p.direction);
+                if d.norm() == 0.0 {
+                    return Err(bad(field, "has a zero direction".into()));
+                }
+                if e.tool == Tool::Scissors && vec3(&p.up).cross(&d).norm() <= 1e-6 * d.norm() {
+                    return Err(bad(field, "has `up` along the direction".into()));
+                }
+                Ok(())
+            };
+            if e.action != ToolAction::Release {
+                check_pose(&e.pose, "pose")?;
+                let mut t = time;
+                for k in &e.path {
+                    check_pose(&k.pose, "path")?;
+                    if !(k.time.is_finite() && k.time >= t) {
+                        return Err(bad(
+                            "path",
+                            format!("key at t = {} s is before the one ahead of it", k.time),
+                        ));
+                    }
+                    t = k.time;
+                }
+            }
+            let i = e.tool.index();
+            match e.action {
+                ToolAction::Press => pressed[i] = true,
+                ToolAction::Move | ToolAction::Release => {
+                    if !pressed[i] {
+                        return Err(SalonError::NotPressed {
+                            index,
+                            tool,
+                            time,
+                            action: if e.action == ToolAction::Move {
+                                "move"
+                            } else {
+                                "release"
+                            },
+                        });
+                    }
+                    if e.action == ToolAction::Release {
+                        pressed[i] = false;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ToolEvent {
+    /// The pose (world) at time `t` along the event's pose and path.
+    pub fn pose_at(&self, t: f32) -> Pose {
+        let mut a = (self.time, self.pose);
+        for k in &self.path {
+            if t <= k.time {
+                let span = k.time - a.0;
+                let f = if span > 0.0 {
+                    ((t - a.0) / span).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                };
+                return lerp_pose(&a.1, &k.pose, f);
+            }
+            a = (k.time, k.pose);
+        }
+        a.1
+    }
+}
+
+fn lerp_pose(a: &Pose, b: &Pose, f: f32) -> Pose {
+    let mix = |x: &[f32; 3], y: &[f32; 3]| -> [f32; 3] {
+        [
+            x[0] + (y[0] - x[0]) * f,
+            x[1] + (y[1] - x[1]) * f,
+            x[2] + (y[2] - x[2]) * f,
+        ]
+    };
+    let dir = |x: &[f32; 3], y: &[f32; 3]| -> [f32; 3] {
+        let u = vec3(x).normalize();
+        let v = vec3(y).normalize();
+        let w = (u + (v - u) * f).try_normalize(1e-9).unwrap_or(v);
+        [w.x, w.y, w.z]
+    };
+    Pose {
+        position: mix(&a.position, &b.position),
+        direction: dir(&a.direction, &b.direction),
+        up: dir(&a.up, &b.up),
+    }
+}
+
+/// Counters of the salon, per step (serialized flat into the per-frame metrics).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct SalonStats {
+    /// Water of the hair (kg): strands times wetness over the front and every fallen piece.
+    pub water_kg: f64,
+    /// Length of the hair at rest (m): strands times skeleton rest length over the front and
+    /// every fallen piece (the wet stretch is elastic and not counted); a cut leaves it unchanged.
+    pub hair_length_m: f64,
+    /// Live spray bonds.
+    pub bonds: usize,
+    /// Bonds made so far.
+    pub bonds_made: u64,
+    /// Bonds broken so far (pulled past their distance).
+    pub bonds_broken: u64,
+    /// Skeletons cut so far (front skeletons; each makes a fallen piece).
+    pub cuts: u64,
+    /// Scissor snips so far.
+    pub snips: u64,
+    /// Fallen pieces still simulated.
+    pub fallen: usize,
+    /// Fallen pieces swept off the floor so far.
+    pub swept: usize,
+    /// Control points held by the grab tool.
+    pub grabbed: usize,
+    /// Sections inside a tool's area this step.
+    pub tool_sections: usize,
+    /// Tools pressed at the end of this step.
+    pub tools_pressed: usize,
+    /// Milliseconds in the salon stage.
+    pub ms_salon: f64,
+}
+
+/// Inputs of one salon stage, borrowed from the pipeline.
+pub(crate) struct SalonInput<'a> {
+    pub hierarchy: &'a Hierarchy,
+    pub front: &'a [u32],
+    pub grid: &'a Grid,
+    pub sections: &'a [Section],
+    pub body: Option<&'a BodyModel>,
+    pub head: &'a HeadMotion,
+    /// Simulated time at the end of the step (s).
+    pub time: Real,
+    pub dt: Real,
+    pub friction: Real,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Fallen {
+    skeleton: u32,
+    source: u32,
+    first_source: u32,
+    swept: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Grab {
+    skeleton: u32,
+    node: u32,
+    offset: Vector,
+}
+
+/// The tools' state during a simulation: the script's cursor, the pressed tools, the per-node
+/// styling factors, the fallen pieces and the grabbed points, and reused scratch buffers.
+#[derive(Debug, Default)]
+pub struct Salon {
+    script: ToolScript,
+    cursor: usize,
+    pressed: [Option<u32>; 6],
+    volumes: Vec<InfluenceVolume>,
+    // Per state node.
+    stiffness: Vec<Real>,
+    thickness: Vec<Real>,
+    base_k_theta: Vec<Real>,
+    base_k_phi: Vec<Real>,
+    base_radius: Vec<Real>,
+    curl: Vec<Real>,
+    // Per hierarchy node.
+    mark: Vec<bool>,
+    dirty: Vec<u32>,
+    ancestors: Vec<u32>,
+    stack: Vec<u32>,
+    refresh: Vec<u32>,
+    // Tools.
+    fallen: Vec<Fallen>,
+    grabs: Vec<Grab>,
+    forced: Vec<u32>,
+    hits: Vec<u32>,
+    cells: Vec<hair_grid::CellKey>,
+    section_mark: Vec<bool>,
+    bond_keys: Vec<(u32, u32)>,
+    candidates: Vec<[u32; 2]>,
+    bond_count: Vec<u8>,
+    points: Vec<Point>,
+    corrections: Vec<NodeCorrection>,
+    constraints: Vec<VelocityConstraint>,
+    frames: Vec<Matrix3<Real>>,
+    curve: Vec<Point>,
+    control: Vec<Point>,
+    stats: SalonStats,
+    last_bonds: usize,
+}
+
+impl Salon {
+    /// The tools of a validated script over a simulation's initial state, whose skeleton `s`
+    /// has the radius `skeleton_radius[s]` as built.
+    pub(crate) fn new(
+        script: &ToolScript,
+        state: &StrandState,
+        h: &Hierarchy,
+        skeleton_radius: &[Real],
+    ) -> Self {
+        let mut s = Salon {
+            script: script.clone(),
+            ..Salon::default()
+        };
+        s.reset(state, h, skeleton_radius);
+        s
+    }
+
+    /// Back to the start of the script over `state` (the initial state).
+    pub(crate) fn reset(&mut self, state: &StrandState, h: &Hierarchy, skeleton_radius: &[Real]) {
+        let n = state.node_count();
+        self.cursor = 0;
+        self.pressed = [None; 6];
+        self.volumes.clear();
+        self.stiffness = vec![1.0; n];
+        self.thickness = vec![1.0; n];
+        self.base_k_theta = state.k_theta().to_vec();
+        self.base_k_phi = state.k_phi().to_vec();
+        self.base_radius = state.radius().to_vec();
+        for (s, &r) in skeleton_radius.iter().enumerate() {
+            if s < state.skeleton_count() {
+                for i in state.nodes(SkeletonId(s as u32)) {
+                    self.base_radius[i] = r;
+                }
+            }
+        }
+        let ca = self.script.settings.curl_angle.max(1e-6);
+        self.curl = (0..n)
+            .map(|i| {
+                let b = (state.rest_theta()[i].powi(2) + state.rest_phi()[i].powi(2)).sqrt();
+                (b / ca).min(1.0)
+            })
+            .collect();
+        self.mark = vec![false; h.node_count()];
+        self.fallen.clear();
+        self.grabs.clear();
+        self.forced.clear();
+        self.stats = SalonStats::default();
+        self.last_bonds = state.bonds().len();
+    }
+
+    /// The script.
+    pub fn script(&self) -> &ToolScript {
+        &self.script
+    }
+
+    /// The areas of the pressed tools (head frame) as of the last step: their cells wake.
+    pub fn volumes(&self) -> &[InfluenceVolume] {
+        &self.volumes
+    }
+
+    /// Skeletons of the fallen pieces (swept ones included).
+    pub fn fallen_skeletons(&self) -> impl Iterator<Item = SkeletonId> + '_ {
+        self.fallen.iter().map(|f| SkeletonId(f.skeleton))
+    }
+
+    /// The grabbed control points: (skeleton, global node index).
+    pub fn grabbed(&self, state: &StrandState) -> Vec<(SkeletonId, usize)> {
+        self.grabs
+            .iter()
+            .map(|g| {
+                let id = SkeletonId(g.skeleton);
+                (id, state.nodes(id).start + g.node as usize)
+            })
+            .collect()
+    }
+
+    /// Per-node spring factor (1 = as built).
+    pub fn stiffness(&self) -> &[Real] {
+        &self.stiffness
+    }
+
+    /// Per-node radius factor (1 = as built).
+    pub fn thickness(&self) -> &[Real] {
+        &self.thickness
+    }
+
+    /// The counters as of the last step.
+    pub fn stats(&self) -> SalonStats {
+        self.stats
+    }
+
+    /// One salon stage, after the dynamics of a step: the script's events up to the end of the
+    /// step, then every pressed tool for one step, then the effects carried through the
+    /// hierarchy, and the fallen pieces kept out of the body.
+    pub(crate) fn step(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+    ) -> Result<SalonStats, HairError> {
+        let t0 = std::time::Instant::now();
+        // Bonds that the dynamics broke since the last stage.
+        let live = state.bonds().len();
+        self.stats.bonds_broken += self.last_bonds.saturating_sub(live) as u64;
+        self.stats.tool_sections = 0;
+        self.grow(state);
+        // Events up to the end of this step.
+        while let Some(e) = self.script.events.get(self.cursor) {
+            if e.time >= inp.time {
+                break;
+            }
+            let index = self.cursor;
+            self.cursor += 1;
+            let (tool, action) = (e.tool, e.action);
+            match action {
+                ToolAction::Press | ToolAction::Move => {
+                    self.pressed[tool.index()] = Some(index as u32);
+                    match tool {
+                        Tool::Scissors => self.snip(state, inp, index)?,
+                        Tool::Grab if action == ToolAction::Press => {
+                            self.take(state, inp, index)?;
+                        }
+                        _ => {}
+                    }
+                }
+                ToolAction::Release => {
+                    self.pressed[tool.index()] = None;
+                    match tool {
+                        Tool::Grab => self.grabs.clear(),
+                        Tool::Dryer => self.clear_forces(state),
+                        _ => {}
+                    }
+                }
+            }
+        }
+        // The pressed tools' areas now.
+        self.volumes.clear();
+        for tool in Tool::ALL {
+            if let Some(i) = self.pressed[tool.index()] {
+                let v = self.volume(i as usize, inp.time, inp.head);
+                self.volumes.push(v);
+            }
+        }
+        // Continuous tools, in a fixed order.
+        if self.pressed[Tool::Dryer.index()].is_none() && !self.forced.is_empty() {
+            self.clear_forces(state);
+        }
+        for tool in [Tool::Water, Tool::Spray, Tool::Mousse, Tool::Dryer] {
+            if let Some(i) = self.pressed[tool.index()] {
+                self.apply(state, inp, tool, i as usize)?;
+            }
+        }
+        if let Some(i) = self.pressed[Tool::Grab.index()] {
+            self.hold(state, inp, i as usize)?;
+        }
+        self.propagate(state, inp.hierarchy);
+        self.collide_fallen(state, inp)?;
+        // Counters.
+        self.last_bonds = state.bonds().len();
+        self.stats.bonds = self.last_bonds;
+        self.stats.grabbed = self.grabs.len();
+        self.stats.tools_pressed = self.pressed.iter().filter(|p| p.is_some()).count();
+        let (water, length) = self.totals(state, inp.hierarchy, inp.front);
+        self.stats.water_kg = water;
+        self.stats.hair_length_m = length;
+        self.stats.fallen = self.fallen.iter().filter(|f| !f.swept).count();
+        self.stats.swept = self.fallen.len() - self.stats.fallen;
+        self.stats.ms_salon = t0.elapsed().as_secs_f64() * 1e3;
+        Ok(self.stats)
+    }
+
+    /// Water (kg) and rest length (m) of the hair: strands times wetness and times skeleton rest
+    /// length over the nodes of `front` and every fallen piece.
+    pub fn totals(&self, state: &StrandState, h: &Hierarchy, front: &[u32]) -> (f64, f64) {
+        let mut water = 0.0f64;
+        let mut length = 0.0f64;
+        let mut add = |id: SkeletonId, strands: f64| {
+            let r = state.nodes(id);
+            let w: f64 = state.wetness()[r.clone()]
+                .iter()
+                .map(|&x| f64::from(x))
+                .sum();
+            let l: f64 = state.rest_length()[r.start + 1..r.end]
+                .iter()
+                .map(|&x| f64::from(x))
+                .sum();
+            water += strands * w;
+            length += strands * l;
+        };
+        for &n in front {
+            add(SkeletonId(n), f64::from(h.strand_count(n)));
+        }
+        for f in &self.fallen {
+            add(SkeletonId(f.skeleton), f64::from(h.strand_count(f.source)));
+        }
+        (water, length)
+    }
+
+    /// Extends the per-node arrays to the state's node count (after a cut added a piece).
+    fn grow(&mut self, state: &StrandState) {
+        let n = state.node_count();
+        if self.stiffness.len() < n {
+            self.stiffness.resize(n, 1.0);
+            self.thickness.resize(n, 1.0);
+            self.base_k_theta.resize(n, 0.0);
+            self.base_k_phi.resize(n, 0.0);
+            self.base_radius.resize(n, 0.0);
+            self.curl.resize(n, 0.0);
+        }
+    }
+
+    /// The area of the tool of event `i` at time `t`, in the head frame.
+    fn volume(&self, i: usize, t: Real, head: &HeadMotion) -> InfluenceVolume {
+        let e = &self.script.events[i];
+        let pose = e.pose_at(t);
+        let inv = head.rotation.inverse();
+        let apex = Point::from(inv * (vec3(&pose.position) - head.position.coords));
+        let dir = (inv * vec3(&pose.direction))
+            .try_normalize(1e-12)
+            .unwrap_or_else(|| -Vector::z());
+        if e.tool == Tool::Scissors {
+            let up = inv * vec3(&pose.up);
+            let side = up
+                .cross(&dir)
+                .try_normalize(1e-12)
+                .unwrap_or_else(Vector::x);
+            let (s, c) = e.angle.sin_cos();
+            InfluenceVolume::Triangle([
+                apex,
+                apex + (dir * c + side * s) * e.reach,
+                apex + (dir * c - side * s) * e.reach,
+            ])
+        } else {
+            InfluenceVolume::Cone(Cone::from_angle(apex, dir, e.reach, e.angle))
+        }
+    }
+
+    /// Whether section `sec` is still a live segment of its skeleton (a cut this step may have
+    /// removed it); returns its skeleton and local segment end.
+    fn live(state: &StrandState, sections: &[Section], sec: usize) -> Option<(SkeletonId, usize)> {
+        let s = &sections[sec];
+        let id = SkeletonId(s.skeleton);
+        let k = s.segment as usize + 1;
+        (k < state.nodes(id).len()).then_some((id, k))
+    }
+
+    /// The live sections whose end control point (at its current position, grown by its
+    /// radius) lies in the cone: candidates from the grid cells the cone covers, then the exact
+    /// point test. Ascending, into `out`.
+    fn sections_in_cone(
+        &mut self,
+        state: &StrandState,
+        inp: &SalonInput<'_>,
+        cone: &Cone,
+        out: &mut Vec<u32>,
+    ) -> Result<(), HairError> {
+        inp.grid
+            .cells_touched_by(&InfluenceVolume::Cone(*cone), &mut self.cells)?;
+        out.clear();
+        for &key in &self.cells {
+            out.extend_from_slice(inp.grid.cell_sections(key));
+        }
+        out.sort_unstable();
+        out.dedup();
+        out.retain(|&sec| {
+            Self::live(state, inp.sections, sec as usize).is_some_and(|(id, k)| {
+                let i = state.nodes(id).start + k;
+                let p = state.positions()[i];
+                cone.contains_point(&p) || cone.distance_to_point(&p) <= state.radius()[i]
+            })
+        });
+        Ok(())
+    }
+
+    fn mark_dirty(&mut self, node: u32) {
+        if let Some(m) = self.mark.get_mut(node as usize)
+            && !*m
+        {
+            *m = true;
+            self.dirty.push(node);
+        }
+    }
+
+    /// Applies a continuous tool for one step to the sections in its cone.
+    fn apply(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+        tool: Tool,
+        i: usize,
+    ) -> Result<(), HairError> {
+        let vol = self.volume(i, inp.time, inp.head);
+        let InfluenceVolume::Cone(cone) = vol else {
+            return Ok(());
+        };
+        let (strength, reach) = {
+            let e = &self.script.events[i];
+            (e.strength, e.reach)
+        };
+        let st = self.script.settings;
+        let dt = inp.dt;
+        let mut hits = std::mem::take(&mut self.hits);
+        self.sections_in_cone(state, inp, &cone, &mut hits)?;
+        self.stats.tool_sections += hits.len();
+        let axis = cone.axis.normalize();
+        if tool == Tool::Dryer {
+            self.clear_forces(state);
+        }
+        for &sec in &hits {
+            let Some((id, k)) = Self::live(state, inp.sections, sec as usize) else {
+                continue;
+            };
+            let node = state.nodes(id).start + k;
+            match tool {
+                Tool::Water => {
+                    let cap = st.saturation * state.mass()[node];
+                    let w = &mut state.wetness_mut()[node];
+                    *w = (*w + strength * st.water_rate * dt).min(cap.max(*w));
+                    self.stiffness[node] = 1.0; // water undoes hairspray's stiffening
+                }
+                Tool::Spray => {
+                    let f = &mut self.stiffness[node];
+                    *f = (*f + strength * st.spray_rate * dt).min(st.max_stiffness.max(*f));
+                }
+                Tool::Mousse => {
+                    let f = &mut self.thickness[node];
+                    *f = (*f + strength * st.mousse_rate * dt).min(st.max_thickness.max(*f));
+                }
+                Tool::Dryer => {
+                    let along = (state.positions()[node] - cone.apex).dot(&axis);
+                    let fade = if reach > 0.0 {
+                        (1.0 - along / reach).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    state.external_force_mut()[node] = axis * (strength * st.dryer_force * fade);
+                    self.forced.push(node as u32);
+                    let w = &mut state.wetness_mut()[node];
+                    *w = (*w - strength * st.dry_rate * fade * dt).max(0.0);
+                }
+                Tool::Grab | Tool::Scissors => {}
+            }
+            self.mark_dirty(id.0);
+        }
+        if tool == Tool::Spray {
+            self.bond(state, inp, &hits)?;
+        }
+        self.hits = hits;
+        Ok(())
+    }
+
+    /// Spray bonds: between the end nodes of every pair of sprayed sections in contact now, on
+    /// different skeletons, up to `bonds_per_node` per node, never twice between two nodes.
+    fn bond(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+        hits: &[u32],
+    ) -> Result<(), HairError> {
+        let st = self.script.settings;
+        self.section_mark.clear();
+        self.section_mark.resize(inp.sections.len(), false);
+        for &h in hits {
+            self.section_mark[h as usize] = true;
+        }
+        self.bond_keys.clear();
+        self.bond_count.clear();
+        self.bond_count.resize(state.node_count(), 0);
+        for b in state.bonds() {
+            self.bond_keys.push((b.a.min(b.b), b.a.max(b.b)));
+            self.bond_count[b.a as usize] = self.bond_count[b.a as usize].saturating_add(1);
+            self.bond_count[b.b as usize] = self.bond_count[b.b as usize].saturating_add(1);
+        }
+        self.bond_keys.sort_unstable();
+        let limit = st.bonds_per_node.min(255) as u8;
+        // Candidate pairs: sprayed sections sharing a grid cell (each pair once, ascending).
+        self.candidates.clear();
+        for &a in hits {
+            for key in inp.grid.section_cells(a as usize) {
+                for &b in inp.grid.cell_sections(key) {
+                    if b > a && self.section_mark[b as usize] {
+                        self.candidates.push([a, b]);
+                    }
+                }
+            }
+        }
+        self.candidates.sort_unstable();
+        self.candidates.dedup();
+        let candidates = std::mem::take(&mut self.candidates);
+        for &[a, b] in &candidates {
+            let (a, b) = (a as usize, b as usize);
+            if inp.sections[a].skeleton == inp.sections[b].skeleton {
+                continue;
+            }
+            // In contact now: the sections' swept volumes overlap.
+            let (sa, sb) = (&inp.sections[a].shape, &inp.sections[b].shape);
+            let c = sa.closest_points(sb);
+            if (c.on_b - c.on_a).norm() > sa.radius() + sb.radius() {
+                continue;
+            }
+            let (Some((ia, ka)), Some((ib, kb))) = (
+                Self::live(state, inp.sections, a),
+                Self::live(state, inp.sections, b),
+            ) else {
+                continue;
+            };
+            let na = (state.nodes(ia).start + ka) as u32;
+            let nb = (state.nodes(ib).start + kb) as u32;
+            let key = (na.min(nb), na.max(nb));
+            if self.bond_count[na as usize] >= limit
+                || self.bond_count[nb as usize] >= limit
+                || self.bond_keys.binary_search(&key).is_ok()
+            {
+                continue;
+            }
+            let rest = (state.positions()[na as usize] - state.positions()[nb as usize]).norm();
+            state.add_bond(Bond {
+                a: key.0,
+                b: key.1,
+                rest,
+                stiffness: st.bond_stiffness,
+                break_distance: rest + st.bond_break_stretch,
+            })?;
+            let pos = self.bond_keys.binary_search(&key).unwrap_or_else(|p| p);
+            self.bond_keys.insert(pos, key);
+            self.bond_count[na as usize] += 1;
+            self.bond_count[nb as usize] += 1;
+            self.stats.bonds_made += 1;
+        }
+        self.candidates = candidates;
+        Ok(())
+    }
+
+    fn clear_forces(&mut self, state: &mut StrandState) {
+        let n = state.node_count();
+        for &i in &self.forced {
+            if (i as usize) < n {
+                state.external_force_mut()[i as usize] = Vector::zeros();
+            }
+        }
+        self.forced.clear();
+    }
+
+    /// Grab press: one control point per skeleton inside the cone, the closest to its axis.
+    fn take(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+        i: usize,
+    ) -> Result<(), HairError> {
+        self.grabs.clear();
+        let vol = self.volume(i, inp.time, inp.head);
+        let InfluenceVolume::Cone(cone) = vol else {
+            return Ok(());
+        };
+        let mut hits = std::mem::take(&mut self.hits);
+        self.sections_in_cone(state, inp, &cone, &mut hits)?;
+        let axis = cone.axis.normalize();
+        let mut best: Option<(u32, u32, Real)> = None;
+        let flush = |best: &mut Option<(u32, u32, Real)>, grabs: &mut Vec<Grab>| {
+            if let Some((skel, node, _)) = best.take() {
+                let p = state.positions()[state.nodes(SkeletonId(skel)).start + node as usize];
+                grabs.push(Grab {
+                    skeleton: skel,
+                    node,
+                    offset: p - cone.apex,
+                });
+            }
+        };
+        for &sec in &hits {
+            let Some((id, k)) = Self::live(state, inp.sections, sec as usize) else {
+                continue;
+            };
+            if best.is_some_and(|b| b.0 != id.0) {
+                flush(&mut best, &mut self.grabs);
+            }
+            let p = state.positions()[state.nodes(id).start + k];
+            if !cone.contains_point(&p) {
+                continue;
+            }
+            let w = p - cone.apex;
+            let off_axis = (w - axis * w.dot(&axis)).norm();
+            if best.is_none_or(|b| off_axis < b.2) {
+                best = Some((id.0, k as u32, off_axis));
+            }
+        }
+        flush(&mut best, &mut self.grabs);
+        self.hits = hits;
+        Ok(())
+    }
+
+    /// Grabbed points follow the tool, within their reach.
+    fn hold(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+        i: usize,
+    ) -> Result<(), HairError> {
+        let InfluenceVolume::Cone(cone) = self.volume(i, inp.time, inp.head) else {
+            return Ok(());
+        };
+        self.grabs
+            .retain(|g| (g.node as usize) < state.nodes(SkeletonId(g.skeleton)).len());
+        for g in &self.grabs {
+            state.hold_node(
+                SkeletonId(g.skeleton),
+                g.node as usize,
+                cone.apex + g.offset,
+                &mut self.points,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// A snip: every front skeleton crossing the blades' triangle is cut at its first crossing
+    /// from the root; the part below falls as a free skeleton; the cut is inherited by the
+    /// node's descendants (the same trailing points removed).
+    fn snip(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+        i: usize,
+    ) -> Result<(), HairError> {
+        self.stats.snips += 1;
+        let vol = self.volume(i, inp.time, inp.head);
+        let InfluenceVolume::Triangle(tri) = vol else {
+            return Ok(());
+        };
+        let mut hits = std::mem::take(&mut self.hits);
+        inp.grid.sections_in(&vol, &mut hits)?;
+        self.stats.tool_sections += hits.len();
+        let min_len = self.script.settings.min_cut_length;
+        let mut last_cut: Option<u32> = None;
+        for &sec in &hits {
+            let s = &inp.sections[sec as usize];
+            if last_cut == Some(s.skeleton) {
+                continue; // first crossing from the root only
+            }
+            let Some((id, k)) = Self::live(state, inp.sections, sec as usize) else {
+                continue;
+            };
+            let r = state.nodes(id);
+            let (a, b) = (
+                state.positions()[r.start + k - 1],
+                state.positions()[r.start + k],
+            );
+            let Some(t) = segment_triangle(&a, &b, &tri) else {
+                continue;
+            };
+            let Some(at) =
+                (CutPoint { segment: k, t }).snapped(&state.length()[r.clone()], min_len)
+            else {
+                continue;
+            };
+            last_cut = Some(id.0);
+            let res = state.cut(id, at, true)?;
+            if let Some(f) = res.fallen {
+                self.grow(state);
+                let fr = state.nodes(f);
+                for j in 0..fr.len() {
+                    let src = if j == 0 {
+                        r.start + at.segment
+                    } else {
+                        r.start + res.first_source + j - 1
+                    };
+                    let dst = fr.start + j;
+                    self.stiffness[dst] = self.stiffness[src];
+                    self.thickness[dst] = self.thickness[src];
+                    self.base_k_theta[dst] = self.base_k_theta[src];
+                    self.base_k_phi[dst] = self.base_k_phi[src];
+                    self.base_radius[dst] = self.base_radius[src];
+                    self.curl[dst] = if j >= 2 { self.curl[src] } else { 0.0 };
+                }
+                self.fallen.push(Fallen {
+                    skeleton: f.0,
+                    source: id.0,
+                    first_source: res.first_source as u32,
+                    swept: false,
+                });
+                state.set_active(f, true);
+            }
+            self.stats.cuts += 1;
+            // Inherit the cut down the hierarchy (inactive levels: no fallen piece of their own).
+            let h = inp.hierarchy;
+            if (id.0 as usize) < h.node_count() {
+                self.stack.clear();
+                self.stack.extend(h.children(id.0));
+                while let Some(d) = self.stack.pop() {
+                    self.stack.extend(h.children(d));
+                    let n = state.nodes(SkeletonId(d)).len();
+                    if at.segment < n && !(at.t >= 1.0 && at.segment + 1 >= n) {
+                        state.cut(SkeletonId(d), at, false)?;
+                    }
+                }
+                self.mark_dirty(id.0);
+            }
+            self.grabs.retain(|g| {
+                g.skeleton != id.0 || (g.node as usize) < state.nodes(SkeletonId(g.skeleton)).len()
+            });
+        }
+        self.hits = hits;
+        Ok(())
+    }
+
+    /// Carries the touched nodes' properties through the hierarchy (copied down, strand-weighted
+    /// means up) and refreshes what they drive: springs, radius and wet stretch.
+    fn propagate(&mut self, state: &mut StrandState, h: &Hierarchy) {
+        if self.dirty.is_empty() {
+            return;
+        }
+        self.dirty.sort_unstable();
+        self.refresh.clear();
+        for di in 0..self.dirty.len() {
+            let n = self.dirty[di];
+            self.refresh.push(n);
+            let src = state.nodes(SkeletonId(n));
+            self.stack.clear();
+            self.stack.extend(h.children(n));
+            while let Some(d) = self.stack.pop() {
+                self.stack.extend(h.children(d));
+                let dst = state.nodes(SkeletonId(d));
+                let m = src.len().min(dst.len());
+                for j in 0..m {
+                    let (a, b) = (src.start + j, dst.start + j);
+                    let w = state.wetness()[a];
+                    state.wetness_mut()[b] = w;
+                    self.stiffness[b] = self.stiffness[a];
+                    self.thickness[b] = self.thickness[a];
+                }
+                self.refresh.push(d);
+            }
+        }
+        // Ancestors, deepest first.
+        self.ancestors.clear();
+        for di in 0..self.dirty.len() {
+            let mut a = h.parent(self.dirty[di]);
+            while let Some(p) = a {
+                if self.mark[p as usize] {
+                    break;
+                }
+                self.mark[p as usize] = true;
+                self.ancestors.push(p);
+                a = h.parent(p);
+            }
+        }
+        self.ancestors
+            .sort_unstable_by_key(|&p| (core::cmp::Reverse(h.level(p)), p));
+        for ai in 0..self.ancestors.len() {
+            let p = self.ancestors[ai];
+            let pr = state.nodes(SkeletonId(p));
+            for j in 0..pr.len() {
+                let (mut w, mut total, mut f, mut g, mut live) = (0.0f64, 0.0f64, 0.0, 0.0, 0.0);
+                for c in h.children(p) {
+                    let cr = state.nodes(SkeletonId(c));
+                    let m = f64::from(h.strand_count(c));
+                    total += m;
+                    if j < cr.len() {
+                        let i = cr.start + j;
+                        w += m * f64::from(state.wetness()[i]);
+                        f += m * f64::from(self.stiffness[i]);
+                        g += m * f64::from(self.thickness[i]);
+                        live += m;
+                    }
+                }
+                let i = pr.start + j;
+                if total > 0.0 {
+                    state.wetness_mut()[i] = (w / total) as Real;
+                }
+                if live > 0.0 {
+                    self.stiffness[i] = (f / live) as Real;
+                    self.thickness[i] = (g / live) as Real;
+                }
+            }
+            self.refresh.push(p);
+        }
+        for &p in &self.ancestors {
+            self.mark[p as usize] = false;
+        }
+        for &d in &self.dirty {
+            self.mark[d as usize] = false;
+        }
+        self.dirty.clear();
+        for ri in 0..self.refresh.len() {
+            self.refresh_node(state, SkeletonId(self.refresh[ri]));
+        }
+    }
+
+    /// Springs, radius and wet stretch of one skeleton from its factors and water.
+    fn refresh_node(&self, state: &mut StrandState, id: SkeletonId) {
+        let st = &self.script.settings;
+        let r = state.nodes(id);
+        let mut moved = false;
+        for i in r.clone() {
+            let m = state.mass()[i];
+            let w = state.wetness()[i];
+            let wet = if m + w > 0.0 { w / (m + w) } else { 0.0 };
+            state.k_theta_mut()[i] = self.base_k_theta[i] * self.stiffness[i];
+            state.k_phi_mut()[i] = self.base_k_phi[i] * self.stiffness[i];
+            state.radius_mut()[i] =
+                self.base_radius[i] * self.thickness[i] * (1.0 - st.wet_shrink * wet);
+            if i == r.start {
+                continue;
+            }
+            let c = self.curl[i] * wet;
+            if c > 1e-4 && st.wet_stretch_stiffness > 0.0 {
+                state.k_stretch_mut()[i] = st.wet_stretch_stiffness / c;
+            } else if state.k_stretch()[i] != 0.0 {
+                state.k_stretch_mut()[i] = 0.0;
+                let rest = state.rest_length()[i];
+                state.length_mut()[i] = rest;
+                moved = true;
+            }
+        }
+        if moved {
+            state.refresh_positions(id);
+        }
+    }
+
+    /// Fallen pieces collide with the body (pushed out along the normal, normal velocity
+    /// removed, friction) and are swept once entirely below the floor.
+    fn collide_fallen(
+        &mut self,
+        state: &mut StrandState,
+        inp: &SalonInput<'_>,
+    ) -> Result<(), HairError> {
+        if self.fallen.is_empty() {
+            return Ok(());
+        }
+        let floor = self.script.settings.floor_height;
+        self.corrections.clear();
+        self.constraints.clear();
+        for f in &mut self.fallen {
+            if f.swept {
+                continue;
+            }
+            let id = SkeletonId(f.skeleton);
+            let r = state.nodes(id);
+            if state.positions()[r.clone()].iter().all(|p| p.y < floor) {
+                f.swept = true;
+                state.set_active(id, false);
+                continue;
+            }
+            let Some(body) = inp.body else { continue };
+            for i in r {
+                let p = state.positions()[i];
+                if !body.near.is_near(&p) {
+                    continue;
+                }
+                let radius = state.radius()[i];
+                if let Some((d, n, _)) = body.signed_distance(&p)
+                    && d < radius
+                {
+                    self.corrections.push(NodeCorrection {
+                        node: i as u32,
+                        delta: n * (radius - d),
+                    });
+                    self.constraints.push(VelocityConstraint {
+                        node: i as u32,
+                        normal: n,
+                        friction: inp.friction,
+                    });
+                }
+            }
+        }
+        if !self.corrections.is_empty() {
+            state.apply_corrections(&self.corrections)?;
+            state.apply_velocity_constraints(&self.constraints)?;
+        }
+        Ok(())
+    }
+
+    /// Render geometry after cuts: every cut strand ends where its skeleton now ends, and every
+    /// fallen piece that is not swept draws the strands of the node it was cut from, at their
+    /// offsets from the original control points. Nothing to do before the first cut.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the render inputs are distinct fields of the pipeline"
+    )]
+    pub(crate) fn render(
+        &mut self,
+        state: &StrandState,
+        h: &Hierarchy,
+        strand_node: &[u32],
+        node_local_start: &[u32],
+        strand_local: &[Vector],
+        per: usize,
+        head: &HeadMotion,
+        out: &mut RenderGeometry,
+    ) {
+        if self.stats.cuts == 0 {
+            return;
+        }
+        let sub = out.subdivisions.max(1);
+        let verts_of = |n: usize| {
+            if sub <= 1 || n < 2 {
+                n
+            } else {
+                sub * (n - 1) + 1
+            }
+        };
+        // Compact: strand s keeps the vertices of its live control points.
+        let strands = out.strand_count();
+        let mut write = 0usize;
+        for s in 0..strands.min(strand_node.len()) {
+            let start = out.offsets[s] as usize;
+            let full = out.offsets[s + 1] as usize - start;
+            let live = state.nodes(SkeletonId(strand_node[s])).len().min(per);
+            let keep = verts_of(live).min(full);
+            out.positions.copy_within(start..start + keep, write);
+            out.offsets[s] = write as u32;
+            write += keep;
+        }
+        out.offsets.truncate(strands.min(strand_node.len()) + 1);
+        if let Some(last) = out.offsets.last_mut() {
+            *last = write as u32;
+        }
+        out.positions.truncate(write);
+        // Fallen pieces.
+        let rot = head.rotation;
+        let origin = head.position;
+        for f in &self.fallen {
+            if f.swept || (f.source as usize) >= h.node_count() {
+                continue;
+            }
+            let id = SkeletonId(f.skeleton);
+            let r = state.nodes(id);
+            let p = &state.positions()[r.clone()];
+            transport_frames(p, state.root_frame(id).matrix(), &mut self.frames);
+            // Offsets of the source node's strands start here, `per` per strand.
+            let base = node_local_start
+                .get(f.source as usize)
+                .map_or(usize::MAX, |&b| b as usize);
+            for slot in 0..h.strands(f.source).len() {
+                self.control.clear();
+                for (j, pj) in p.iter().enumerate() {
+                    let k = (f.first_source as usize + j).saturating_sub(1).min(per - 1);
+                    let local = strand_local
+                        .get(base.saturating_add(slot * per + k))
+                        .copied()
+                        .unwrap_or_default();
+                    self.control
+                        .push(origin + rot * (pj.coords + self.frames[j] * local));
+                }
+                self.curve.clear();
+                catmull_rom(&self.control, sub, &mut self.curve);
+                out.positions.extend_from_slice(&self.curve);
+                out.offsets.push(out.positions.len() as u32);
+            }
+        }
+    }
+}
+
+/// Where segment `a -> b` crosses the triangle: the fraction along it, if it does.
+fn segment_triangle(a: &Point, b: &Point, t: &[Point; 3]) -> Option<Real> {
+    let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
+    let da = (a - t[0]).dot(&n);
+    let db = (b - t[0]).dot(&n);
+    if (da > 0.0 && db > 0.0) || (da < 0.0 && db < 0.0) || da == db {
+        return None;
+    }
+    let s = da / (da - db);
+    let p = a + (b - a) * s;
+    // Inside test by the signs of the three edge normals.
+    let inside = (0..3).all(|e| {
+        let (u, v) = (t[e], t[(e + 1) % 3]);
+        (v - u).cross(&(p - u)).dot(&n) >= 0.0
+    });
+    inside.then_some(s.clamp(0.0, 1.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_segment_through_a_triangle_crosses_it_once() {
+        let tri = [
+            Point::new(0.0, 0.0, 0.0),
+            Point::new(1.0, 0.0, 0.0),
+            Point::new(0.0, 0.0, 1.0),
+        ];
+        let t = segment_triangle(
+            &Point::new(0.2, 1.0, 0.2),
+            &Point::new(0.2, -3.0, 0.2),
+            &tri,
+        );
+        assert_eq!(t, Some(0.25));
+        assert_eq!(
+            segment_triangle(
+                &Point::new(2.0, 1.0, 2.0),
+                &Point::new(2.0, -1.0, 2.0),
+                &tri
+            ),
+            None
+        );
+        assert_eq!(
+            segment_triangle(&Point::new(0.2, 1.0, 0.2), &Point::new(0.2, 0.5, 0.2), &tri),
+            None
+        );
+    }
+
+    #[test]
+    fn a_path_is_followed_and_held_at_its_end() {
+        let e = ToolEvent {
+            time: 1.0,
+            tool: Tool::Water,
+            action: ToolAction::Press,
+            pose: Pose::default(),
+            path: vec![PoseKey {
+                time: 2.0,
+                pose: Pose {
+                    position: [1.0, 0.0, 0.0],
+                    ..Pose::default()
+                },
+            }],
+            strength: 1.0,
+            reach: 0.1,
+            angle: 0.3,
+        };
+        assert_eq!(e.pose_at(0.5).position, [0.0, 0.0, 0.0]);
+        assert_eq!(e.pose_at(1.5).position, [0.5, 0.0, 0.0]);
+        assert_eq!(e.pose_at(3.0).position, [1.0, 0.0, 0.0]);
+    }
+}
