@@ -395,7 +395,7 @@ impl BodyModel {
     }
 
     /// Signed distance and outward normal by `method`, or `None` when `p` is farther than
-    /// [`NEAR_MARGIN`] from the body (or the method cannot answer there).
+    /// the near margin (2 cm) from the body (or the method cannot answer there).
     #[inline]
     pub fn distance(
         &self,
