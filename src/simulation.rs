@@ -90,6 +90,8 @@ pub struct Simulation {
     pairs: PairSet,
     activity: Activity,
     speeds: Vec<Real>,
+    /// Node positions at the end of the previous step (localization measures motion by them).
+    previous_positions: Vec<Point>,
     frozen_skeleton: Vec<bool>,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
@@ -252,6 +254,7 @@ impl Simulation {
             pairs: PairSet::new(),
             activity: Activity::new(ActivityConfig::default()),
             speeds: Vec::new(),
+            previous_positions: Vec::new(),
             frozen_skeleton: Vec::new(),
             corrections: Vec::new(),
             constraints: Vec::new(),
@@ -433,6 +436,7 @@ impl Simulation {
         self.steps = 0;
         self.activity = Activity::new(ActivityConfig::default());
         self.frozen_skeleton.clear();
+        self.previous_positions.clear();
         self.accumulator = 0.0;
         self.frame_render.positions.clear();
         if let Some(lod) = &self.initial_adaptive {
@@ -597,13 +601,28 @@ impl Simulation {
         self.grid.rebuild(&self.sections)?;
         // Localization: sections frozen when every cell they cover has been quiet.
         if self.scene.localization {
+            // Motion is measured by how far nodes moved over the last step, not by their
+            // velocity: a node resting on the body keeps a velocity into it that the push-out
+            // cancels every step, and hair lying still must not count as moving.
             self.speeds.clear();
-            let v = self.state.velocities();
-            self.speeds.extend(
-                self.section_node
-                    .iter()
-                    .map(|&i| v[i as usize].norm().max(v[i as usize - 1].norm())),
-            );
+            let p = self.state.positions();
+            if self.previous_positions.len() == p.len() {
+                let (before, inv_dt) = (&self.previous_positions, 1.0 / self.settings.dt);
+                self.speeds.extend(self.section_node.iter().map(|&i| {
+                    let i = i as usize;
+                    (p[i] - before[i])
+                        .norm()
+                        .max((p[i - 1] - before[i - 1]).norm())
+                        * inv_dt
+                }));
+            } else {
+                let v = self.state.velocities();
+                self.speeds.extend(
+                    self.section_node
+                        .iter()
+                        .map(|&i| v[i as usize].norm().max(v[i as usize - 1].norm())),
+                );
+            }
             self.activity.update(
                 &self.grid,
                 &ActivityInput {
@@ -623,8 +642,17 @@ impl Simulation {
                 }
             }
             for &node in &self.front_nodes {
-                self.state
-                    .set_active(SkeletonId(node), !self.frozen_skeleton[node as usize]);
+                let id = SkeletonId(node);
+                let active = !self.frozen_skeleton[node as usize];
+                if !active && self.state.is_active(id) {
+                    // Frozen at rest: it wakes with no motion, not with the velocity into
+                    // the body it had while resting there.
+                    let r = self.state.nodes(id);
+                    self.state.omega_theta_mut()[r.clone()].fill(0.0);
+                    self.state.omega_phi_mut()[r].fill(0.0);
+                    self.state.refresh_positions(id);
+                }
+                self.state.set_active(id, active);
             }
         }
         let t3 = Instant::now();
@@ -741,6 +769,11 @@ impl Simulation {
 
         self.time += self.settings.dt;
         self.steps += 1;
+        if self.scene.localization {
+            self.previous_positions.clear();
+            self.previous_positions
+                .extend_from_slice(self.state.positions());
+        }
 
         // 7. Render geometry.
         self.update_render_geometry();

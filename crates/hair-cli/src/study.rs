@@ -2,7 +2,9 @@
 //! on one scene, each measured for cost and for its distance from the `fine` run — Ward & Lin's
 //! Tables 1 and 2 with the error they could not quantify.
 //!
-//! The reference is the `fine` policy with the scene's own collision method. Every run starts
+//! The reference is the `fine` policy with the scene's own collision method and localization off:
+//! the finest simulation. Localization (the salon paper's dormant cells) is measured on top of
+//! `fine` and `adaptive`, whatever the scene asks for. Every run starts
 //! from the same scene and seed; after every frame the rendered strands' control vertices are
 //! compared with the reference's at the same frame, and the RMS and the maximum over all frames
 //! and vertices are reported (mm).
@@ -39,14 +41,18 @@ pub struct PolicyResult {
     pub policy: String,
     /// Body collision method.
     pub collision: String,
+    /// Whether localization froze quiet cells.
+    pub localization: bool,
     /// Mean milliseconds per frame.
     pub ms_per_frame: f64,
     /// Mean milliseconds per frame integrating.
     pub ms_dynamics: f64,
     /// Mean milliseconds per frame in hair-hair and hair-object collision.
     pub ms_collision: f64,
-    /// Mean skeletons simulated per step.
+    /// Mean skeletons on the LOD front per step.
     pub mean_skeletons: f64,
+    /// Mean of those frozen by localization per step.
+    pub mean_dormant: f64,
     /// RMS distance of the rendered strands' control vertices from the fine run (mm).
     pub rms_error_mm: f64,
     /// Largest such distance (mm).
@@ -90,6 +96,14 @@ fn snapshot(sim: &Simulation, out: &mut Vec<hair::ssv::Point>) {
     }
 }
 
+/// One configuration of a study.
+#[derive(Clone, Copy, Debug)]
+struct Config {
+    policy: LodPolicy,
+    method: CollisionMethod,
+    localization: bool,
+}
+
 struct Run {
     result: PolicyResult,
     frames: Vec<Vec<hair::ssv::Point>>,
@@ -97,18 +111,23 @@ struct Run {
 
 fn run_one(
     scene: &hair::LoadedScene,
-    policy: LodPolicy,
-    method: CollisionMethod,
+    config: Config,
     frames: u32,
     reference: Option<&[Vec<hair::ssv::Point>]>,
 ) -> Result<Run> {
+    let Config {
+        policy,
+        method,
+        localization,
+    } = config;
     let mut loaded = scene.clone();
     loaded.scene.collision.method = method;
+    loaded.scene.localization = localization;
     let mut sim = Simulation::new(&loaded, policy)
         .with_context(|| format!("building {} with {}", policy.name(), method_name(method)))?;
     let ramp = u64::from(loaded.scene.collision.depenetration_steps);
-    let (mut total, mut dynamics, mut collision, mut skeletons, mut steps) =
-        (0.0, 0.0, 0.0, 0.0, 0.0f64);
+    let (mut total, mut dynamics, mut collision, mut skeletons, mut dormant, mut steps) =
+        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0f64);
     let mut max_pen: f64 = 0.0;
     let (mut sum_sq, mut count, mut max_err) = (0.0f64, 0u64, 0.0f64);
     let mut kept = Vec::new();
@@ -120,6 +139,7 @@ fn run_one(
             dynamics += s.ms_dynamics;
             collision += s.ms_hair_hair + s.ms_hair_object;
             skeletons += s.skeletons as f64;
+            dormant += s.dormant as f64;
             steps += 1.0;
             if s.step >= ramp {
                 max_pen = max_pen.max(s.max_penetration_m);
@@ -139,20 +159,24 @@ fn run_one(
         }
     }
     let f = f64::from(frames.max(1));
-    let name = if method == scene.scene.collision.method {
-        policy.name().to_string()
-    } else {
-        format!("{}+{}", policy.name(), method_name(method))
-    };
+    let mut name = policy.name().to_string();
+    if method != scene.scene.collision.method {
+        name = format!("{name}+{}", method_name(method));
+    }
+    if localization {
+        name.push_str("+localized");
+    }
     Ok(Run {
         result: PolicyResult {
             name,
             policy: policy.name().into(),
             collision: method_name(method).into(),
+            localization,
             ms_per_frame: total / f,
             ms_dynamics: dynamics / f,
             ms_collision: collision / f,
             mean_skeletons: skeletons / steps.max(1.0),
+            mean_dormant: dormant / steps.max(1.0),
             rms_error_mm: if count > 0 {
                 (sum_sq / count as f64).sqrt() * 1e3
             } else {
@@ -180,15 +204,22 @@ pub fn run(args: Args) -> Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let own = loaded.scene.collision.method;
-    let mut configs: Vec<(LodPolicy, CollisionMethod)> = [
+    let config = |policy, method, localization| Config {
+        policy,
+        method,
+        localization,
+    };
+    let mut configs: Vec<Config> = [
         LodPolicy::Adaptive,
         LodPolicy::CoarseStrands,
         LodPolicy::Clusters,
         LodPolicy::Strips,
     ]
     .into_iter()
-    .map(|p| (p, own))
+    .map(|p| config(p, own, false))
     .collect();
+    configs.push(config(LodPolicy::Fine, own, true));
+    configs.push(config(LodPolicy::Adaptive, own, true));
     let mut methods = vec![CollisionMethod::Field, CollisionMethod::Bvh];
     if matches!(loaded.scene.body, BodySpec::Head { .. }) {
         methods.push(CollisionMethod::Maps);
@@ -200,7 +231,7 @@ pub fn run(args: Args) -> Result<()> {
         methods
             .into_iter()
             .filter(|&m| m != own)
-            .map(|m| (LodPolicy::Fine, m)),
+            .map(|m| config(LodPolicy::Fine, m, false)),
     );
     let study = pool.install(|| -> Result<Study> {
         eprintln!(
@@ -208,18 +239,19 @@ pub fn run(args: Args) -> Result<()> {
             loaded.scene.name,
             method_name(own)
         );
-        let reference = run_one(&loaded, LodPolicy::Fine, own, frames, None)?;
+        let reference = run_one(&loaded, config(LodPolicy::Fine, own, false), frames, None)?;
         let fine_ms = reference.result.ms_per_frame.max(1e-9);
         let strands = reference.frames.first().map_or(0, |f| f.len());
         let mut policies = vec![reference.result.clone()];
-        for (policy, method) in configs {
+        for c in configs {
             eprintln!(
-                "study {}: {} ({}) ...",
+                "study {}: {} ({}{}) ...",
                 loaded.scene.name,
-                policy.name(),
-                method_name(method)
+                c.policy.name(),
+                method_name(c.method),
+                if c.localization { ", localized" } else { "" }
             );
-            let mut r = run_one(&loaded, policy, method, frames, Some(&reference.frames))?.result;
+            let mut r = run_one(&loaded, c, frames, Some(&reference.frames))?.result;
             r.cost_ratio = r.ms_per_frame / fine_ms;
             policies.push(r);
         }
@@ -234,18 +266,20 @@ pub fn run(args: Args) -> Result<()> {
     let json = serde_json::to_string_pretty(&study)?;
     write(&args.out.join("study.json"), &json)?;
     let mut csv = String::from(
-        "name,policy,collision,ms_per_frame,ms_dynamics,ms_collision,mean_skeletons,rms_error_mm,max_error_mm,max_penetration_mm,cost_ratio\n",
+        "name,policy,collision,localization,ms_per_frame,ms_dynamics,ms_collision,mean_skeletons,mean_dormant,rms_error_mm,max_error_mm,max_penetration_mm,cost_ratio\n",
     );
     for p in &study.policies {
         csv.push_str(&format!(
-            "{},{},{},{:.3},{:.3},{:.3},{:.1},{:.4},{:.4},{:.4},{:.4}\n",
+            "{},{},{},{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.4},{:.4},{:.4},{:.4}\n",
             p.name,
             p.policy,
             p.collision,
+            p.localization,
             p.ms_per_frame,
             p.ms_dynamics,
             p.ms_collision,
             p.mean_skeletons,
+            p.mean_dormant,
             p.rms_error_mm,
             p.max_error_mm,
             p.max_penetration_mm,
