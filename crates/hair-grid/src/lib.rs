@@ -28,8 +28,10 @@
 //!
 //! Per cell, the search gathers the boxes into columns and tests each row of pairs with packed
 //! compares; a box hit on the same skeleton within `skip_neighbours` is dropped; otherwise it is
-//! reported only by the first cell (in key order) both sections cover, decided by the cell being
-//! the first of either cover or by a 4 x 4 x 4 bit set of each cover (no key lists, no hash set);
+//! reported only by the first cell (in key order) both sections cover. The rebuild stores with
+//! each entry its section's earlier cells, as a bit set of the 5 x 5 x 5 window around the cell,
+//! so that this test is one AND of two words read in cell order (no key lists, no hash set; the
+//! key lists decide only when a cover leaves the window);
 //! the survivors get the exact LSS-LSS distance eight at a time, and any pair within a rounding
 //! band of the margin (or not two LSS) goes to the scalar `hair-ssv` kernel, so the set is
 //! exactly `Ssv::distance <= margin`. Cells are split into fixed tasks of 256 and the output is
