@@ -22,6 +22,9 @@ const CELLS_PER_TASK: usize = 256;
 /// Lanes of the box test and of the exact test.
 const LANES: usize = 8;
 
+/// Multiplier that moves the low bit of each of the eight bytes of a word into its top byte.
+const GATHER_BYTES: u64 = 0x0102_0408_1020_4080;
+
 /// Candidate pairs buffered before the exact test.
 const BATCH: usize = 512;
 
@@ -66,8 +69,11 @@ struct PairChunk {
     ids: Vec<[u32; 2]>,
     /// One row of box-test results, a byte per box.
     hits: Vec<u8>,
-    /// Candidates (internal indices) waiting for the exact test.
+    /// Candidates (internal indices) waiting for the exact test: the first `n_cand`. The rest is
+    /// room written ahead, so that appending needs no branch (half of the box hits are dropped,
+    /// unpredictably).
     cand: Vec<[u32; 2]>,
+    n_cand: usize,
 }
 
 /// A reusable set of section pairs `[i, j]` with `i < j`, filled by [`Grid::candidate_pairs`] or
@@ -188,13 +194,14 @@ impl Grid {
             .enumerate()
             .for_each(|(t, chunk)| {
                 chunk.pairs.clear();
-                chunk.cand.clear();
+                chunk.n_cand = 0;
                 let c0 = t * CELLS_PER_TASK;
                 let c1 = (c0 + CELLS_PER_TASK).min(n_cells);
                 for c in c0..c1 {
                     self.cell_pairs(c, chunk, exact);
                 }
-                self.finish(&mut chunk.cand, &mut chunk.pairs, exact);
+                self.finish(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
+                chunk.n_cand = 0;
             });
     }
 
@@ -216,18 +223,19 @@ impl Grid {
             ids,
             hits,
             cand,
+            n_cand,
         } = chunk;
         // Gather the boxes into columns, padded with NaN (which fails every comparison) so that
         // the row test needs no remainder.
-        if hits.len() < m + 4 {
-            hits.resize(m + 4, 0);
+        if hits.len() < m + 8 {
+            hits.resize(m + 8, 0);
             for col in cols.iter_mut() {
-                col.resize(m + 4, f32::NAN);
+                col.resize(m + 8, f32::NAN);
             }
-            ids.resize(m + 4, [0; 2]);
+            ids.resize(m + 8, [0; 2]);
         }
         for col in cols.iter_mut() {
-            col[m..m + 4].fill(f32::NAN);
+            col[m..m + 8].fill(f32::NAN);
         }
         {
             let [lx, ly, lz, hx, hy, hz] = &mut *cols;
@@ -248,12 +256,15 @@ impl Grid {
             let hi = [hx[a], hy[a], hz[a]];
             let [skel_a, seg_a] = ids[a];
             let earlier_a = earlier[a];
-            // One row of box tests, padded to a multiple of four lanes with the NaN boxes so
-            // that it compiles to packed compares with no remainder: a byte per box, then
-            // scanned four bytes at a time. (Moving the neighbour and owner tests into this loop
-            // removes branch misses but costs more instructions than it saves.)
+            if cand.len() < *n_cand + m {
+                cand.resize(*n_cand + m, [0; 2]);
+            }
+            // One row of box tests, padded to a multiple of eight lanes with the NaN boxes so
+            // that it compiles to packed compares with no remainder: a byte per box. (Moving the
+            // neighbour and owner tests into this loop removes branch misses but costs more
+            // instructions than it saves.)
             let b0 = a + 1;
-            let n = (m - b0 + 3) & !3;
+            let n = (m - b0 + 7) & !7;
             let (x0, y0, z0) = (&lx[b0..b0 + n], &ly[b0..b0 + n], &lz[b0..b0 + n]);
             let (x1, y1, z1) = (&hx[b0..b0 + n], &hy[b0..b0 + n], &hz[b0..b0 + n]);
             let row = &mut hits[..n];
@@ -267,33 +278,45 @@ impl Grid {
                         & (z1[k] >= lo[2]),
                 );
             }
-            for (w, word) in row.chunks_exact(4).enumerate() {
-                let mut bits = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+            // The bytes to bits, 64 boxes at a time, branch-free (a branch per group of boxes
+            // would be mispredicted about as often as there are hits).
+            for (g, group) in row.chunks(64).enumerate() {
+                let mut bits = 0u64;
+                for (w, word) in group.chunks_exact(8).enumerate() {
+                    let word = u64::from_le_bytes([
+                        word[0], word[1], word[2], word[3], word[4], word[5], word[6], word[7],
+                    ]);
+                    // Each byte is 0 or 1: the product gathers the eight low bits into the top
+                    // byte.
+                    bits |= (word.wrapping_mul(GATHER_BYTES) >> 56) << (8 * w);
+                }
                 while bits != 0 {
-                    let b = b0 + 4 * w + (bits.trailing_zeros() / 8) as usize;
+                    let b = b0 + 64 * g + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
                     let [skel_b, seg_b] = ids[b];
-                    if skel_a == skel_b && seg_a.abs_diff(seg_b) <= skip {
+                    let neighbours = (skel_a == skel_b) & (seg_a.abs_diff(seg_b) <= skip);
+                    let verdict = owner(earlier_a, earlier[b]);
+                    let pair = [ents[a], ents[b]];
+                    if !neighbours & (verdict == Owner::Unsure) {
+                        if self.first_shared(self.cell_keys[c], pair[0], pair[1]) {
+                            cand[*n_cand] = pair;
+                            *n_cand += 1;
+                        }
                         continue;
                     }
-                    let reports = match owner(earlier_a, earlier[b]) {
-                        Owner::Yes => true,
-                        Owner::No => false,
-                        Owner::Unsure => self.first_shared(self.cell_keys[c], ents[a], ents[b]),
-                    };
-                    if reports {
-                        cand.push([ents[a], ents[b]]);
-                    }
+                    cand[*n_cand] = pair;
+                    *n_cand += usize::from(!neighbours & (verdict == Owner::Yes));
                 }
             }
-            if cand.len() >= BATCH {
-                self.finish(cand, pairs, exact);
+            if *n_cand >= BATCH {
+                self.finish(&cand[..*n_cand], pairs, exact);
+                *n_cand = 0;
             }
         }
     }
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
-    fn finish(&self, cand: &mut Vec<[u32; 2]>, pairs: &mut Vec<[u32; 2]>, exact: bool) {
+    fn finish(&self, cand: &[[u32; 2]], pairs: &mut Vec<[u32; 2]>, exact: bool) {
         let pk = &self.packed;
         let order = &pk.order;
         let orig = |[a, b]: [u32; 2]| {
@@ -302,7 +325,6 @@ impl Grid {
         };
         if !exact {
             pairs.extend(cand.iter().map(|&p| orig(p)));
-            cand.clear();
             return;
         }
         let margin = self.config.margin;
@@ -324,7 +346,6 @@ impl Grid {
                 pairs.push([i, j]);
             }
         }
-        cand.clear();
     }
 
     /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's segment-segment kernel run lane-wise on the
@@ -439,13 +460,11 @@ pub(crate) fn earlier_cells(keys: &[u64], out: &mut Vec<u64>) {
         out.extend(std::iter::repeat_n(u64::MAX, keys.len() - 1));
         return;
     }
-    let mut cells = [[0i32; 3]; MAX_DESCRIBED];
-    for (cell, &key) in cells.iter_mut().zip(keys) {
-        *cell = unpack3(key);
-    }
-    for (k, c) in cells[..keys.len()].iter().enumerate() {
+    for (k, &key) in keys.iter().enumerate() {
+        let c = unpack3(key);
         let mut bits = 0u64;
-        for p in cells[..k].iter().rev() {
+        for &prev in keys[..k].iter().rev() {
+            let p = unpack3(prev);
             let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
             if d[0] < -2 {
                 // Every cell before this one is further away along x.
@@ -476,14 +495,12 @@ enum Owner {
 #[inline]
 fn owner(a: u64, b: u64) -> Owner {
     let both = a & b;
-    if both == 0 {
-        Owner::Yes
-    } else if (a | b) & UNKNOWN != 0 {
-        Owner::Unsure
-    } else if both & WINDOW != 0 {
-        Owner::No
-    } else {
-        Owner::Unsure
+    let unsure = ((a | b) & UNKNOWN != 0) | (both & WINDOW == 0);
+    // Selects rather than branches: the outcome is unpredictable.
+    match (both == 0, unsure) {
+        (true, _) => Owner::Yes,
+        (false, true) => Owner::Unsure,
+        (false, false) => Owner::No,
     }
 }
 
