@@ -777,9 +777,12 @@ impl Grid {
             let nb = box_cells as usize;
             // Blocks of chunks, one per thread: each counts and places only its own entries.
             // Within a cell the entries of block 0 come first, then block 1's, and so on, so
-            // the order (by section index) does not depend on the number of blocks.
+            // the order (by section index) does not depend on the number of blocks. Each block
+            // holds a count per box cell, so beyond two blocks there are no more blocks than
+            // entries per box cell (the counts then take no more room than the entries).
             let n_chunks = chunks.len();
             let blocks = rayon::current_num_threads()
+                .min((entries / nb.max(1)).max(2))
                 .clamp(1, 64)
                 .min(n_chunks.max(1));
             let per_block = n_chunks.div_ceil(blocks).max(1);
