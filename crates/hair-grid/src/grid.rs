@@ -1,11 +1,14 @@
 //! The sparse uniform grid of hair sections (Ward & Lin 2003 §5.3; salon paper §4.3.1), rebuilt
 //! every step by a parallel counting sort of (cell, section) entries.
 
+use std::sync::atomic::Ordering::Relaxed;
+use std::sync::atomic::{AtomicU32, AtomicU64};
+
 use rayon::prelude::*;
 
 use crate::cell_key::{CellKey, LATTICE_HALF};
 use crate::cover::{self, CellBox};
-use crate::pairs::{Cover, PBox, Packed, line_of};
+use crate::pairs::{PBox, Packed, line_of};
 use crate::{GridError, Point, Real, Ssv};
 
 /// Sections per cover chunk: the unit of parallel work when inserting, fixed so that the output
@@ -60,26 +63,22 @@ impl Default for GridConfig {
     }
 }
 
-/// Per-section record used by the pair search: the bounding box grown by half the margin and the
-/// rounding slack, the ids, and the cover as a small bit set (so that the pair search can find the
-/// first cell two sections share without reading their key lists).
+/// Per-section record: the bounding box grown by half the margin and the rounding slack, and the
+/// ids.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Rec {
     pub aabb: [Real; 6],
     pub skeleton: u32,
     pub segment: u32,
-    /// Lowest cell of the cover on each axis.
-    pub lo: [i32; 3],
-    /// The cover as a 4 x 4 x 4 bit set from `lo` (bit `16 x + 4 y + z`, so that bit order is key
-    /// order); 0 when the cover spans more than 4 cells on an axis.
-    pub mask: u64,
 }
 
 /// One chunk of sections: their covers, item-major (the packed cell keys of each section,
-/// ascending).
+/// ascending), and for each (section, cell) entry the section's earlier cells as a bit set
+/// ([`crate::pairs::earlier_cells`]).
 #[derive(Debug, Default)]
 pub(crate) struct CoverChunk {
     pub keys: Vec<u64>,
+    pub earlier: Vec<u64>,
     pub start: Vec<u32>,
     scratch: Vec<[i64; 3]>,
     error: Option<GridError>,
@@ -112,15 +111,23 @@ pub struct Grid {
     /// Dense path: after the scatter, `prefix[k]` is the end of box cell `k` in `sorted_items`.
     dense: bool,
     prefix: Vec<u32>,
+    /// Dense path: per block of chunks, its entry count per box cell, then its cursor.
+    block_counts: Vec<Vec<u32>>,
+    /// Dense path: the scatter's output before it is copied to `sorted_items` and
+    /// `entry_earlier`.
+    scatter_items: Vec<AtomicU32>,
+    scatter_earlier: Vec<AtomicU64>,
     /// Dense path: index among the non-empty cells of each box cell.
     dense_cell: Vec<u32>,
     /// Section data in the pair search's order.
     pub(crate) packed: Packed,
+    /// Per entry, in cell order: the section's cells before this one, as a bit set.
+    pub(crate) entry_earlier: Vec<u64>,
     pub(crate) sorted_items: Vec<u32>,
     /// Packed keys of the non-empty cells, ascending.
     pub(crate) cell_keys: Vec<u64>,
     pub(crate) cell_start: Vec<u32>,
-    tmp: Vec<(u64, u32)>,
+    tmp: Vec<(u64, u32, u64)>,
 }
 
 impl Default for Grid {
@@ -252,28 +259,6 @@ pub(crate) fn unpack3(k: u64) -> [i32; 3] {
     [c(k >> 42) as i32, c(k >> 21) as i32, c(k) as i32]
 }
 
-/// The lowest cell of a cover on each axis and the cover as a 4 x 4 x 4 bit set from it (0 when
-/// it does not fit).
-fn cover_mask(keys: &[u64]) -> ([i32; 3], u64) {
-    let mut lo = [i32::MAX; 3];
-    for &k in keys {
-        let c = unpack3(k);
-        for a in 0..3 {
-            lo[a] = lo[a].min(c[a]);
-        }
-    }
-    let mut mask = 0u64;
-    for &k in keys {
-        let c = unpack3(k);
-        let r = [0, 1, 2].map(|a| c[a].wrapping_sub(lo[a]) as u32);
-        if r.iter().any(|&v| v >= 4) {
-            return (lo, 0);
-        }
-        mask |= 1 << (r[0] * 16 + r[1] * 4 + r[2]);
-    }
-    (lo, mask)
-}
-
 #[inline]
 fn pack_i64(c: [i64; 3]) -> u64 {
     let b = |v: i64| (v + LATTICE_HALF) as u64;
@@ -297,8 +282,12 @@ impl Grid {
             entries: 0,
             dense: false,
             prefix: Vec::new(),
+            block_counts: Vec::new(),
+            scatter_items: Vec::new(),
+            scatter_earlier: Vec::new(),
             dense_cell: Vec::new(),
             packed: Packed::default(),
+            entry_earlier: Vec::new(),
             sorted_items: Vec::new(),
             cell_keys: Vec::new(),
             cell_start: vec![0],
@@ -491,6 +480,7 @@ impl Grid {
         self.dense = false;
         self.prefix.clear();
         self.sorted_items.clear();
+        self.entry_earlier.clear();
         self.cell_keys.clear();
         self.cell_start.clear();
         self.cell_start.push(0);
@@ -583,6 +573,7 @@ impl Grid {
             .for_each(|(ci, (((chunk, secs), recs), shapes))| {
                 let CoverChunk {
                     keys,
+                    earlier,
                     start,
                     scratch,
                     error,
@@ -590,6 +581,7 @@ impl Grid {
                     hi,
                 } = chunk;
                 keys.clear();
+                earlier.clear();
                 start.clear();
                 start.push(0);
                 *error = None;
@@ -622,8 +614,6 @@ impl Grid {
                         ],
                         skeleton: s.skeleton,
                         segment: s.segment,
-                        lo: [0; 3],
-                        mask: 0,
                     };
                     let (v, n, r) = core_in_cells(&s.shape, inv, grow);
                     let (cl, ch) = cell_range(&v[..n], r);
@@ -658,7 +648,7 @@ impl Grid {
                         break;
                     }
                     let first = *start.last().unwrap_or(&0) as usize;
-                    (rec.lo, rec.mask) = cover_mask(&keys[first..]);
+                    crate::pairs::earlier_cells(&keys[first..], earlier);
                     start.push(keys.len() as u32);
                 }
             });
@@ -730,15 +720,13 @@ impl Grid {
         }
         // Gather the data in the new order.
         pk.boxes.resize(n, PBox::default());
-        pk.covers.resize(n, Cover::default());
         pk.lines.resize(n, [0.0; 8]);
-        let (recs, shapes, order, first) = (&self.recs, &self.shapes, &pk.order, &pk.first);
+        let (recs, shapes, order) = (&self.recs, &self.shapes, &pk.order);
         pk.boxes
             .par_chunks_mut(CHUNK)
-            .zip(pk.covers.par_chunks_mut(CHUNK))
             .zip(pk.lines.par_chunks_mut(CHUNK))
             .zip(order.par_chunks(CHUNK))
-            .for_each(|(((boxes, covers), lines), order)| {
+            .for_each(|((boxes, lines), order)| {
                 for (k, &i) in order.iter().enumerate() {
                     let r = &recs[i as usize];
                     boxes[k] = PBox {
@@ -746,11 +734,6 @@ impl Grid {
                         hi: [r.aabb[3], r.aabb[4], r.aabb[5]],
                         skeleton: r.skeleton,
                         segment: r.segment,
-                    };
-                    covers[k] = Cover {
-                        lo: r.lo,
-                        first: first[i as usize],
-                        mask: r.mask,
                     };
                     lines[k] = line_of(&shapes[i as usize]);
                 }
@@ -783,6 +766,8 @@ impl Grid {
         let chunks = &self.chunks[..self.n_chunks];
         self.sorted_items.clear();
         self.sorted_items.resize(entries, 0);
+        self.entry_earlier.clear();
+        self.entry_earlier.resize(entries, 0);
         self.cell_keys.clear();
         self.cell_start.clear();
         self.cell_start.push(0);
@@ -790,70 +775,87 @@ impl Grid {
         let dims = self.dims;
         if self.dense {
             let nb = box_cells as usize;
+            // Blocks of chunks, one per thread: each counts and places only its own entries.
+            // Within a cell the entries of block 0 come first, then block 1's, and so on, so
+            // the order (by section index) does not depend on the number of blocks. Each block
+            // holds a count per box cell, so beyond two blocks there are no more blocks than
+            // entries per box cell (the counts then take no more room than the entries).
+            let n_chunks = chunks.len();
+            let blocks = rayon::current_num_threads()
+                .min((entries / nb.max(1)).max(2))
+                .clamp(1, 64)
+                .min(n_chunks.max(1));
+            let per_block = n_chunks.div_ceil(blocks).max(1);
+            let blocks = n_chunks.div_ceil(per_block).max(1);
+            if self.block_counts.len() < blocks {
+                self.block_counts.resize_with(blocks, Vec::new);
+            }
+            let counts = &mut self.block_counts[..blocks];
+            counts
+                .par_iter_mut()
+                .zip(chunks.par_chunks(per_block))
+                .for_each(|(count, chs)| {
+                    count.clear();
+                    count.resize(nb, 0);
+                    for ch in chs {
+                        for &k in &ch.keys {
+                            count[dense_of(k, bo, dims) as usize] += 1;
+                        }
+                    }
+                });
+            // Cell-major, block-minor exclusive prefix: each block's count becomes its cursor,
+            // and `prefix[k]` the end of cell k.
             self.prefix.clear();
             self.prefix.resize(nb, 0);
-            let parts = rayon::current_num_threads().clamp(1, 64);
-            let part = nb.div_ceil(parts).max(1);
-            // Histogram: each task owns a range of cells and scans every entry.
-            self.prefix
-                .par_chunks_mut(part)
+            let mut run = 0u32;
+            for (d, end) in self.prefix.iter_mut().enumerate() {
+                for count in counts.iter_mut() {
+                    let c = count[d];
+                    count[d] = run;
+                    run += c;
+                }
+                *end = run;
+            }
+            // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
+            // stores, plain moves on common targets), then one sequential copy.
+            if self.scatter_items.len() < entries {
+                self.scatter_items
+                    .resize_with(entries, || AtomicU32::new(0));
+                self.scatter_earlier
+                    .resize_with(entries, || AtomicU64::new(0));
+            }
+            let (out_items, out_earlier) = (&self.scatter_items, &self.scatter_earlier);
+            counts
+                .par_iter_mut()
+                .zip(chunks.par_chunks(per_block))
                 .enumerate()
-                .for_each(|(t, counts)| {
-                    let lo = (t * part) as u64;
-                    let n = counts.len() as u64;
-                    for ch in chunks {
-                        for &k in &ch.keys {
-                            let d = dense_of(k, bo, dims).wrapping_sub(lo);
-                            if d < n {
-                                counts[d as usize] += 1;
+                .for_each(|(b, (cursor, chs))| {
+                    for (j, ch) in chs.iter().enumerate() {
+                        let first = (b * per_block + j) * CHUNK;
+                        for l in 0..ch.start.len() - 1 {
+                            let range = ch.start[l] as usize..ch.start[l + 1] as usize;
+                            for (&k, &earlier) in
+                                ch.keys[range.clone()].iter().zip(&ch.earlier[range])
+                            {
+                                let c = &mut cursor[dense_of(k, bo, dims) as usize];
+                                out_items[*c as usize].store((first + l) as u32, Relaxed);
+                                out_earlier[*c as usize].store(earlier, Relaxed);
+                                *c += 1;
                             }
                         }
                     }
                 });
-            // Exclusive prefix: prefix[k] becomes the start of cell k.
-            let mut run = 0u32;
-            for p in self.prefix.iter_mut() {
-                let c = *p;
-                *p = run;
-                run += c;
-            }
-            // Scatter: each task owns a cell range and the matching slice of the output; its
-            // cursors are the prefix entries of its range, which end as the cells' ends.
-            let mut slices: Vec<&mut [u32]> = Vec::with_capacity(parts);
-            let mut rest: &mut [u32] = &mut self.sorted_items;
-            let mut taken = 0usize;
-            for t in 0..nb.div_ceil(part) {
-                let end = if (t + 1) * part >= nb {
-                    entries
-                } else {
-                    self.prefix[(t + 1) * part] as usize
-                };
-                let (a, b) = rest.split_at_mut(end - taken);
-                slices.push(a);
-                rest = b;
-                taken = end;
-            }
-            slices
-                .into_par_iter()
-                .zip(self.prefix.par_chunks_mut(part))
-                .enumerate()
-                .for_each(|(t, (out, cur))| {
-                    let lo = (t * part) as u64;
-                    let n = cur.len() as u64;
-                    let base = cur.first().copied().unwrap_or(0) as usize;
-                    for (ci, ch) in chunks.iter().enumerate() {
-                        let mut l = 0usize;
-                        for (e, &k) in ch.keys.iter().enumerate() {
-                            while ch.start[l + 1] as usize <= e {
-                                l += 1;
-                            }
-                            let d = dense_of(k, bo, dims).wrapping_sub(lo);
-                            if d < n {
-                                let c = &mut cur[d as usize];
-                                out[*c as usize - base] = (ci * CHUNK + l) as u32;
-                                *c += 1;
-                            }
-                        }
+            self.sorted_items
+                .par_chunks_mut(1 << 14)
+                .zip(self.entry_earlier.par_chunks_mut(1 << 14))
+                .zip(out_items.par_chunks(1 << 14))
+                .zip(out_earlier.par_chunks(1 << 14))
+                .for_each(|(((items, earlier), from_items), from_earlier)| {
+                    for (o, f) in items.iter_mut().zip(from_items) {
+                        *o = f.load(Relaxed);
+                    }
+                    for (o, f) in earlier.iter_mut().zip(from_earlier) {
+                        *o = f.load(Relaxed);
                     }
                 });
             // Non-empty cells.
@@ -878,20 +880,22 @@ impl Grid {
             for (ci, ch) in chunks.iter().enumerate() {
                 for l in 0..ch.start.len() - 1 {
                     let item = (ci * CHUNK + l) as u32;
-                    for &k in &ch.keys[ch.start[l] as usize..ch.start[l + 1] as usize] {
-                        self.tmp.push((k, item));
+                    let range = ch.start[l] as usize..ch.start[l + 1] as usize;
+                    for (&k, &earlier) in ch.keys[range.clone()].iter().zip(&ch.earlier[range]) {
+                        self.tmp.push((k, item, earlier));
                     }
                 }
             }
             self.tmp.par_sort_unstable();
-            for (e, &(k, item)) in self.tmp.iter().enumerate() {
+            for (e, &(k, item, earlier)) in self.tmp.iter().enumerate() {
                 self.sorted_items[e] = item;
+                self.entry_earlier[e] = earlier;
                 if e > 0 && self.tmp[e - 1].0 != k {
                     self.cell_keys.push(self.tmp[e - 1].0);
                     self.cell_start.push(e as u32);
                 }
             }
-            if let Some(&(k, _)) = self.tmp.last() {
+            if let Some(&(k, _, _)) = self.tmp.last() {
                 self.cell_keys.push(k);
                 self.cell_start.push(entries as u32);
             }

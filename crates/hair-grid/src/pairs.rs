@@ -6,8 +6,9 @@
 //! of nearby memory instead of the whole scene (with the caller's order, a strand order, every
 //! section of a cell is a cache miss). Per cell, the boxes are gathered into columns and tested
 //! a row at a time with packed compares; a box hit is kept when the cell is the first one both
-//! cover (the first cell of either, or a bit-set test,
-//! `Grid::first_shared`); the survivors get the exact SSV test, eight at a time.
+//! cover, read from the earlier-cell bit sets stored with the entries (`earlier_cells`, `owner`;
+//! `Grid::first_shared` when they cannot tell); the survivors get the exact SSV test, eight at a
+//! time.
 
 use rayon::prelude::*;
 
@@ -21,6 +22,9 @@ const CELLS_PER_TASK: usize = 256;
 /// Lanes of the box test and of the exact test.
 const LANES: usize = 8;
 
+/// Multiplier that moves the low bit of each of the eight bytes of a word into its top byte.
+const GATHER_BYTES: u64 = 0x0102_0408_1020_4080;
+
 /// Candidate pairs buffered before the exact test.
 const BATCH: usize = 512;
 
@@ -33,16 +37,6 @@ pub(crate) struct PBox {
     pub hi: [f32; 3],
     pub skeleton: u32,
     pub segment: u32,
-}
-
-/// A section's cover as a bit set: lowest cell on each axis and a 4 x 4 x 4 bit set from it
-/// (bit `16 x + 4 y + z`, so that bit order is key order); `mask` 0 when it does not fit.
-#[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Cover {
-    pub lo: [i32; 3],
-    /// Index of the first cell (among the non-empty cells).
-    pub first: u32,
-    pub mask: u64,
 }
 
 /// A section's core for the exact test: `a`, `b - a`, radius, and the largest coordinate
@@ -60,7 +54,6 @@ pub(crate) struct Packed {
     /// Per entry, in cell order, the internal index of its section.
     pub items: Vec<u32>,
     pub boxes: Vec<PBox>,
-    pub covers: Vec<Cover>,
     pub lines: Vec<Line>,
     /// Scratch: index of each section's first cell, and counts per cell.
     pub first: Vec<u32>,
@@ -72,10 +65,15 @@ struct PairChunk {
     pairs: Vec<[u32; 2]>,
     /// The boxes of the current cell by column: min x, y, z, max x, y, z.
     cols: [Vec<f32>; 6],
+    /// Skeleton and segment of each section of the current cell.
+    ids: Vec<[u32; 2]>,
     /// One row of box-test results, a byte per box.
     hits: Vec<u8>,
-    /// Candidates (internal indices) waiting for the exact test.
+    /// Candidates (internal indices) waiting for the exact test: the first `n_cand`. The rest is
+    /// room written ahead, so that appending needs no branch (half of the box hits are dropped,
+    /// unpredictably).
     cand: Vec<[u32; 2]>,
+    n_cand: usize,
 }
 
 /// A reusable set of section pairs `[i, j]` with `i < j`, filled by [`Grid::candidate_pairs`] or
@@ -196,13 +194,14 @@ impl Grid {
             .enumerate()
             .for_each(|(t, chunk)| {
                 chunk.pairs.clear();
-                chunk.cand.clear();
+                chunk.n_cand = 0;
                 let c0 = t * CELLS_PER_TASK;
                 let c1 = (c0 + CELLS_PER_TASK).min(n_cells);
                 for c in c0..c1 {
                     self.cell_pairs(c, chunk, exact);
                 }
-                self.finish(&mut chunk.cand, &mut chunk.pairs, exact);
+                self.finish(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
+                chunk.n_cand = 0;
             });
     }
 
@@ -210,30 +209,33 @@ impl Grid {
     #[inline]
     fn cell_pairs(&self, c: usize, chunk: &mut PairChunk, exact: bool) {
         let pk = &self.packed;
-        let ents = &pk.items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
+        let range = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
+        let ents = &pk.items[range.clone()];
+        let earlier = &self.entry_earlier[range];
         let m = ents.len();
         if m < 2 {
             return;
         }
-        let key = self.cell_keys[c];
-        let cell = unpack3(key);
         let skip = self.config.skip_neighbours;
         let PairChunk {
             pairs,
             cols,
+            ids,
             hits,
             cand,
+            n_cand,
         } = chunk;
         // Gather the boxes into columns, padded with NaN (which fails every comparison) so that
-        // the block test needs no remainder.
-        if hits.len() < m + 4 {
-            hits.resize(m + 4, 0);
+        // the row test needs no remainder.
+        if hits.len() < m + 8 {
+            hits.resize(m + 8, 0);
             for col in cols.iter_mut() {
-                col.resize(m + 4, f32::NAN);
+                col.resize(m + 8, f32::NAN);
             }
+            ids.resize(m + 8, [0; 2]);
         }
         for col in cols.iter_mut() {
-            col[m..m + 4].fill(f32::NAN);
+            col[m..m + 8].fill(f32::NAN);
         }
         {
             let [lx, ly, lz, hx, hy, hz] = &mut *cols;
@@ -245,53 +247,76 @@ impl Grid {
                 hx[e] = b.hi[0];
                 hy[e] = b.hi[1];
                 hz[e] = b.hi[2];
+                ids[e] = [b.skeleton, b.segment];
             }
         }
         let [lx, ly, lz, hx, hy, hz] = &*cols;
         for a in 0..m - 1 {
-            let ia = ents[a];
-            let ba = &pk.boxes[ia as usize];
-            // One row of box tests, padded to a multiple of four lanes with the NaN boxes so
-            // that it compiles to packed compares with no remainder: a byte per box, then
-            // scanned four bytes at a time.
+            let lo = [lx[a], ly[a], lz[a]];
+            let hi = [hx[a], hy[a], hz[a]];
+            let [skel_a, seg_a] = ids[a];
+            let earlier_a = earlier[a];
+            if cand.len() < *n_cand + m {
+                cand.resize(*n_cand + m, [0; 2]);
+            }
+            // One row of box tests, padded to a multiple of eight lanes with the NaN boxes so
+            // that it compiles to packed compares with no remainder: a byte per box. (Moving the
+            // neighbour and owner tests into this loop removes branch misses but costs more
+            // instructions than it saves.)
             let b0 = a + 1;
-            let n = (m - b0 + 3) & !3;
+            let n = (m - b0 + 7) & !7;
             let (x0, y0, z0) = (&lx[b0..b0 + n], &ly[b0..b0 + n], &lz[b0..b0 + n]);
             let (x1, y1, z1) = (&hx[b0..b0 + n], &hy[b0..b0 + n], &hz[b0..b0 + n]);
             let row = &mut hits[..n];
             for k in 0..n {
                 row[k] = u8::from(
-                    (x0[k] <= ba.hi[0])
-                        & (x1[k] >= ba.lo[0])
-                        & (y0[k] <= ba.hi[1])
-                        & (y1[k] >= ba.lo[1])
-                        & (z0[k] <= ba.hi[2])
-                        & (z1[k] >= ba.lo[2]),
+                    (x0[k] <= hi[0])
+                        & (x1[k] >= lo[0])
+                        & (y0[k] <= hi[1])
+                        & (y1[k] >= lo[1])
+                        & (z0[k] <= hi[2])
+                        & (z1[k] >= lo[2]),
                 );
             }
-            for (w, word) in row.chunks_exact(4).enumerate() {
-                let mut bits = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+            // The bytes to bits, 64 boxes at a time, branch-free (a branch per group of boxes
+            // would be mispredicted about as often as there are hits).
+            for (g, group) in row.chunks(64).enumerate() {
+                let mut bits = 0u64;
+                for (w, word) in group.chunks_exact(8).enumerate() {
+                    let word = u64::from_le_bytes([
+                        word[0], word[1], word[2], word[3], word[4], word[5], word[6], word[7],
+                    ]);
+                    // Each byte is 0 or 1: the product gathers the eight low bits into the top
+                    // byte.
+                    bits |= (word.wrapping_mul(GATHER_BYTES) >> 56) << (8 * w);
+                }
                 while bits != 0 {
-                    let ib = ents[b0 + 4 * w + (bits.trailing_zeros() / 8) as usize];
+                    let b = b0 + 64 * g + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    let bb = &pk.boxes[ib as usize];
-                    if ba.skeleton == bb.skeleton && ba.segment.abs_diff(bb.segment) <= skip {
+                    let [skel_b, seg_b] = ids[b];
+                    let neighbours = (skel_a == skel_b) & (seg_a.abs_diff(seg_b) <= skip);
+                    let verdict = owner(earlier_a, earlier[b]);
+                    let pair = [ents[a], ents[b]];
+                    if !neighbours & (verdict == Owner::Unsure) {
+                        if self.first_shared(self.cell_keys[c], pair[0], pair[1]) {
+                            cand[*n_cand] = pair;
+                            *n_cand += 1;
+                        }
                         continue;
                     }
-                    if !self.first_shared(c as u32, cell, key, ia, ib) {
-                        continue;
-                    }
-                    cand.push([ia, ib]);
+                    cand[*n_cand] = pair;
+                    *n_cand += usize::from(!neighbours & (verdict == Owner::Yes));
                 }
             }
-            if cand.len() >= BATCH {
-                self.finish(cand, pairs, exact);
+            if *n_cand >= BATCH {
+                self.finish(&cand[..*n_cand], pairs, exact);
+                *n_cand = 0;
             }
         }
     }
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
-    fn finish(&self, cand: &mut Vec<[u32; 2]>, pairs: &mut Vec<[u32; 2]>, exact: bool) {
+    fn finish(&self, cand: &[[u32; 2]], pairs: &mut Vec<[u32; 2]>, exact: bool) {
         let pk = &self.packed;
         let order = &pk.order;
         let orig = |[a, b]: [u32; 2]| {
@@ -300,7 +325,6 @@ impl Grid {
         };
         if !exact {
             pairs.extend(cand.iter().map(|&p| orig(p)));
-            cand.clear();
             return;
         }
         let margin = self.config.margin;
@@ -322,7 +346,6 @@ impl Grid {
                 pairs.push([i, j]);
             }
         }
-        cand.clear();
     }
 
     /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's segment-segment kernel run lane-wise on the
@@ -399,77 +422,125 @@ impl Grid {
         sure
     }
 
-    /// Whether the cell of index `c` (coordinates `cell`, packed `key`), covered by the sections
-    /// of internal indices `a` and `b`, is the first cell (in key order) that both cover: the
-    /// cell that reports the pair.
-    #[inline]
-    fn first_shared(&self, c: u32, cell: [i32; 3], key: u64, a: u32, b: u32) -> bool {
-        let pk = &self.packed;
-        let (ca, cb) = (&pk.covers[a as usize], &pk.covers[b as usize]);
-        // The first cell of either: nothing comes before it (half of the box hits).
-        if ca.first == c || cb.first == c {
-            return true;
-        }
-        let d = [0, 1, 2].map(|k| cb.lo[k].wrapping_sub(ca.lo[k]));
-        if ca.mask != 0 && cb.mask != 0 && d.iter().all(|v| (-3..=3).contains(v)) {
-            // Move b's cover into a's frame, dropping the cells that fall outside it; then no
-            // shared cell may come before this one.
-            let kept = cb.mask
-                & KEEP[0][(d[0] + 3) as usize]
-                & KEEP[1][(d[1] + 3) as usize]
-                & KEEP[2][(d[2] + 3) as usize];
-            let sh = d[0] * 16 + d[1] * 4 + d[2];
-            let mb = if sh >= 0 { kept << sh } else { kept >> -sh };
-            let r = [0, 1, 2].map(|k| cell[k].wrapping_sub(ca.lo[k]) as u32);
-            let bit = (r[0] * 16 + r[1] * 4 + r[2]) & 63;
-            (ca.mask & mb) & ((1u64 << bit) - 1) == 0
-        } else {
-            let before = |it: u32| {
-                let k = self.item_keys(pk.order[it as usize] as usize);
-                &k[..k.partition_point(|&x| x < key)]
-            };
-            !share_any(before(a), before(b))
-        }
+    /// Whether the cell `key`, covered by the sections of internal indices `a` and `b`, is the
+    /// first cell (in key order) that both cover, from their key lists: the fallback when their
+    /// earlier-cell bit sets cannot tell (a shared cell may lie outside the window).
+    fn first_shared(&self, key: u64, a: u32, b: u32) -> bool {
+        let before = |it: u32| {
+            let k = self.item_keys(self.packed.order[it as usize] as usize);
+            &k[..k.partition_point(|&x| x < key)]
+        };
+        !share_any(before(a), before(b))
     }
 }
 
-/// `KEEP[axis][d + 3]`: the bits of a 4 x 4 x 4 cover (bit `16 x + 4 y + z`) whose coordinate on
-/// `axis` stays in `0..4` when moved by `d`.
-const KEEP: [[u64; 7]; 3] = {
-    let mut t = [[0u64; 7]; 3];
-    let stride = [16u32, 4, 1];
-    let mut axis = 0;
-    while axis < 3 {
-        let mut d = -3i32;
-        while d <= 3 {
-            let mut m = 0u64;
-            let mut bit = 0u32;
-            while bit < 64 {
-                let c = ((bit / stride[axis]) % 4) as i32 + d;
-                if c >= 0 && c < 4 {
-                    m |= 1 << bit;
-                }
-                bit += 1;
-            }
-            t[axis][(d + 3) as usize] = m;
-            d += 1;
-        }
-        axis += 1;
+/// Bit sets of the earlier cells ([`earlier_cells`]): a cell `d` away from the entry's cell
+/// (`d` in `-2..=2` on each axis, before it in key order) is bit `25 (dx + 2) + 5 (dy + 2) +
+/// (dz + 2)`, one of bits 0 to 61 since key order is lexicographic.
+const WINDOW: u64 = (1 << 62) - 1;
+/// Set when some earlier cell lies outside that window.
+const OUTSIDE: u64 = 1 << 63;
+/// Set (with every other bit) when the cover is too long to be described.
+const UNKNOWN: u64 = 1 << 62;
+
+/// Covers longer than this get [`UNKNOWN`] bit sets (the computation is quadratic in the
+/// cover's length).
+const MAX_DESCRIBED: usize = 64;
+
+/// For each cell of a cover (ascending packed keys), the cover's cells before it in key order,
+/// as a bit set in a 5 x 5 x 5 window around it (see [`WINDOW`]). Two sections sharing a cell
+/// report their pair there only when their bit sets for that cell have no bit in common: then
+/// they share no earlier cell, so each pair is reported once, without a hash set. (When the sets
+/// share only [`OUTSIDE`], or one is [`UNKNOWN`], the key lists decide.) If they have nothing in
+/// common, at most one cover has earlier cells outside the window, and the other's all lie
+/// inside it, where the bits show that none is shared.
+pub(crate) fn earlier_cells(keys: &[u64], out: &mut Vec<u64>) {
+    if keys.len() > MAX_DESCRIBED {
+        out.push(0);
+        out.extend(std::iter::repeat_n(u64::MAX, keys.len() - 1));
+        return;
     }
-    t
-};
+    for (k, &key) in keys.iter().enumerate() {
+        let c = unpack3(key);
+        let mut bits = 0u64;
+        for &prev in keys[..k].iter().rev() {
+            let p = unpack3(prev);
+            let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            if d[0] < -2 {
+                // Every cell before this one is further away along x.
+                bits |= OUTSIDE;
+                break;
+            }
+            if d[1].abs() > 2 || d[2].abs() > 2 {
+                bits |= OUTSIDE;
+                continue;
+            }
+            bits |= 1 << ((d[0] + 2) * 25 + (d[1] + 2) * 5 + (d[2] + 2));
+        }
+        out.push(bits);
+    }
+}
+
+/// What the bit sets of two sections in a cell say about reporting their pair there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Owner {
+    /// No earlier cell is shared: report here.
+    Yes,
+    /// An earlier cell is shared: it reports the pair.
+    No,
+    /// The bit sets cannot tell (a shared cell may lie outside the window): read the key lists.
+    Unsure,
+}
+
+#[inline]
+fn owner(a: u64, b: u64) -> Owner {
+    let both = a & b;
+    let unsure = ((a | b) & UNKNOWN != 0) | (both & WINDOW == 0);
+    // Selects rather than branches: the outcome is unpredictable.
+    match (both == 0, unsure) {
+        (true, _) => Owner::Yes,
+        (false, true) => Owner::Unsure,
+        (false, false) => Owner::No,
+    }
+}
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::CellKey;
+
+    fn keys(cells: &[[i32; 3]]) -> Vec<u64> {
+        cells
+            .iter()
+            .map(|c| CellKey::new(c[0], c[1], c[2]).pack().unwrap())
+            .collect()
+    }
+
+    fn bit(d: [i32; 3]) -> u64 {
+        1 << ((d[0] + 2) * 25 + (d[1] + 2) * 5 + (d[2] + 2))
+    }
 
     #[test]
-    fn keep_masks_drop_the_cells_that_leave_the_frame() {
-        // Moving by +1 in z drops z = 3; by -2 in x drops x = 0 and 1.
-        assert_eq!(KEEP[2][4].count_ones(), 48);
-        assert_eq!(KEEP[2][4] & (1 << 3), 0);
-        assert_eq!(KEEP[0][1].count_ones(), 32);
-        assert_eq!(KEEP[0][1] & 0xffff_ffff, 0);
-        assert_eq!(KEEP[1][3], u64::MAX);
+    fn earlier_cells_lists_the_cells_before_each_one() {
+        let mut out = Vec::new();
+        earlier_cells(&keys(&[[0, 0, 0], [0, 0, 1], [1, 0, 0]]), &mut out);
+        assert_eq!(
+            out,
+            vec![0, bit([0, 0, -1]), bit([-1, 0, 0]) | bit([-1, 0, 1])]
+        );
+        // A cell three steps back along x is outside the window.
+        out.clear();
+        earlier_cells(&keys(&[[0, 0, 0], [3, 0, 0]]), &mut out);
+        assert_eq!(out, vec![0, OUTSIDE]);
+    }
+
+    #[test]
+    fn owner_reads_the_bit_sets() {
+        assert_eq!(owner(0, bit([-1, 0, 0])), Owner::Yes);
+        assert_eq!(owner(bit([-1, 0, 0]), bit([0, -1, 0])), Owner::Yes);
+        assert_eq!(owner(bit([-1, 0, 0]), bit([-1, 0, 0])), Owner::No);
+        assert_eq!(owner(OUTSIDE, OUTSIDE | bit([0, 0, -1])), Owner::Unsure);
+        assert_eq!(owner(u64::MAX, bit([0, 0, -1])), Owner::Unsure);
+        assert_eq!(owner(u64::MAX, 0), Owner::Yes);
     }
 }
