@@ -35,7 +35,9 @@ impl Contact {
     ) -> Self {
         let dist = c.dist_sq.sqrt();
         let d = c.on_b - c.on_a;
-        let normal = if dist > 0.0 {
+        // Cores closer than rounding (a ten-thousandth of the radii) touch: the direction
+        // between their closest points is noise there, and moving along it may not separate them.
+        let normal = if dist > 1e-4 * (ra + rb) {
             let n = d / dist;
             if n.x.is_finite() && n.y.is_finite() && n.z.is_finite() {
                 n

@@ -147,9 +147,11 @@ proptest! {
             let after = oracle_core_distance(&ua, &moved) * kk - (a.radius() + b.radius()) as f64;
             prop_assert!(after.abs() <= tol * 2.0, "after separating: {after}");
             prop_assert!((v64(&c.point_a) - v64(&c.point_b)).length() <= c.depth as f64 + tol);
-            // parry's penetration solver (EPA) drifts for deep overlaps: compare shallow ones
+            // parry's penetration solver (EPA) drifts for deep overlaps, and by about 2% of the
+            // radius when the cores touch (a capsule against a segment through its axis): compare
+            // shallow overlaps of separate cores. The exact depth is checked above either way.
             let t = theirs.expect("parry sees the overlap");
-            if (c.depth as f64) < 0.02 * kk {
+            if (c.depth as f64) < 0.02 * kk && core > 1e-3 * kk {
                 prop_assert!((c.depth as f64 + t.dist * kk).abs() <= ROUND_TOL * kk, "depth {} vs parry {}", c.depth, -t.dist * kk);
             }
             if core > 1e-2 * kk && (c.depth as f64) < 0.02 * kk {

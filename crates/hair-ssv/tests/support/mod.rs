@@ -249,6 +249,30 @@ pub fn parry_triangle(t: &[Point; 3]) -> Triangle {
 
 /// The f64 core distance between two SSVs according to parry.
 pub fn oracle_core_distance(a: &Ssv, b: &Ssv) -> f64 {
+    if let (Ssv::Rect(ra), Ssv::Rect(rb)) = (a, b)
+        && rect_as_segment(ra).is_none()
+        && rect_as_segment(rb).is_none()
+    {
+        // GJK between two flat cuboids stalls a few percent short (both supports are whole
+        // faces). Two disjoint convex polygons are closest at an edge of one, and crossing ones
+        // have an edge of one through the other: every edge against the other rectangle.
+        let edges = |r: &Rss| {
+            let c = r.corners();
+            [0, 1, 2, 3].map(|i| Segment::new(v64(&c[i]), v64(&c[(i + 1) % 4])))
+        };
+        let (pa, ca) = parry_rect_core(ra);
+        let (pb, cb) = parry_rect_core(rb);
+        let mut best = f64::INFINITY;
+        for (edges, (pose, cuboid)) in [(edges(ra), (&pb, &cb)), (edges(rb), (&pa, &ca))] {
+            for e in &edges {
+                let d = parry3d_f64::query::distance(&Pose::IDENTITY, e, pose, cuboid)
+                    .expect("supported")
+                    .distance;
+                best = best.min(d);
+            }
+        }
+        return best;
+    }
     let (pa, sa) = parry_core(a);
     let (pb, sb) = parry_core(b);
     parry3d_f64::query::distance(&pa, sa.as_ref(), &pb, sb.as_ref())
