@@ -549,7 +549,12 @@ mod tests {
 
     #[test]
     fn turning_the_aim_turns_the_direction_away_from_the_centre() {
-        let c = camera();
+        // A level camera: the direction at the head is normal to the turning axis (up).
+        let c = OrbitCamera::from_eye_target(
+            Point::new(0.5, 0.0, -0.6),
+            Point::origin(),
+            40f32.to_radians(),
+        );
         let head = HeadSphere {
             centre: Point::origin(),
             radius: 0.12,

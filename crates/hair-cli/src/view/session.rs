@@ -86,11 +86,18 @@ pub struct Session {
 
 impl Session {
     /// A session over a loaded scene: its scripted events are dropped (the session records its
-    /// own), its settings kept.
+    /// own), its settings kept, and its camera path becomes the view's camera, starting where
+    /// the path starts.
     pub fn new(mut loaded: LoadedScene, policy: LodPolicy) -> Result<Self> {
         loaded.scene.tools.events.clear();
-        let sim = Simulation::new(&loaded, policy)?;
+        // The view's camera replaces the scene's path: it starts where the path starts.
         let held_view = hair::drivers::camera(&loaded.scene.camera, 0.0);
+        loaded.scene.camera.keys = vec![CameraKey {
+            time: 0.0,
+            eye: held_view.0.coords.into(),
+            target: held_view.1.coords.into(),
+        }];
+        let sim = Simulation::new(&loaded, policy)?;
         Ok(Self {
             loaded,
             policy,
