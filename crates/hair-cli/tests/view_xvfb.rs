@@ -154,10 +154,20 @@ fn water_dragged_across_the_hair_in_a_real_window_is_recorded_and_replays() {
         out.join("view.png"),
         out.join("session.ron"),
     );
+    // The salon scene, lighter: the test profile simulates and renders slowly in software.
+    let scene_path = out.join("small-salon.ron");
+    let mut scene = hair::Scene::load("salon").expect("the salon scene").scene;
+    if let hair::scene::HairstyleSpec::Procedural(p) = &mut scene.hairstyle {
+        p.strands = 300;
+    }
+    scene.body = hair::scene::BodySpec::Head { resolution: 32 };
+    std::fs::write(&scene_path, scene.to_ron()).unwrap();
     let x = Xvfb::start();
     let mut app = x
         .command(env!("CARGO_BIN_EXE_hair"))
-        .args(["view", "salon", "--size", "900", "600", "--print-layout"])
+        .arg("view")
+        .arg(&scene_path)
+        .args(["--size", "900", "600", "--print-layout"])
         // A backstop: the test quits with a key long before this.
         .args(["--frames", "5000"])
         .arg("--metrics")
@@ -197,8 +207,11 @@ fn water_dragged_across_the_hair_in_a_real_window_is_recorded_and_replays() {
     let click = at(water[0] + 0.5 * water[2], water[1] + 0.5 * water[3]);
     x.xdotool(&["mousemove", "--window", &window, &click[0], &click[1]]);
     std::thread::sleep(Duration::from_millis(500));
-    x.xdotool(&["click", "1"]);
-    std::thread::sleep(Duration::from_millis(800));
+    // Held long enough for a slow window frame to see the button down.
+    x.xdotool(&["mousedown", "1"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    x.xdotool(&["mouseup", "1"]);
+    std::thread::sleep(Duration::from_millis(1500));
     // Drag across the head, in the middle of the view.
     let (cx, cy) = (view[0] + 0.5 * view[2], view[1] + 0.45 * view[3]);
     let start = at(cx - 0.12 * view[2], cy);
@@ -206,13 +219,15 @@ fn water_dragged_across_the_hair_in_a_real_window_is_recorded_and_replays() {
     std::thread::sleep(Duration::from_millis(500));
     x.xdotool(&["mousedown", "1"]);
     for k in 1..=12 {
-        std::thread::sleep(Duration::from_millis(250));
+        std::thread::sleep(Duration::from_millis(400));
         let p = at(cx - 0.12 * view[2] + k as f32 * 0.02 * view[2], cy);
         x.xdotool(&["mousemove", "--window", &window, &p[0], &p[1]]);
     }
-    std::thread::sleep(Duration::from_millis(500));
+    std::thread::sleep(Duration::from_millis(1500));
     x.xdotool(&["mouseup", "1"]);
-    std::thread::sleep(Duration::from_millis(1000));
+    std::thread::sleep(Duration::from_millis(1500));
+    // Keys go to the focused window; with no window manager, focus it by hand.
+    x.xdotool(&["windowfocus", "--sync", &window]);
     x.xdotool(&["key", "q"]);
     let deadline = Instant::now() + Duration::from_secs(120);
     let status = loop {

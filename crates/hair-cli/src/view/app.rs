@@ -17,14 +17,15 @@ use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
 use hair::ssv::{Point, Real, Vector};
 use hair::{Pose, SalonStats, Tool};
 use serde::Serialize;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 /// Largest rendered image (pixels): llvmpipe keeps a frame interactive at about this size.
 const MAX_RENDER: [f32; 2] = [800.0, 600.0];
-/// Most simulated frames per window frame: past this the simulation falls behind wall time
-/// rather than freezing the window.
-const MAX_FRAMES_PER_PAINT: u32 = 2;
+/// Most simulated frames per window frame, and the time after which no further one starts:
+/// past these the simulation falls behind wall time rather than freezing the window.
+const MAX_FRAMES_PER_PAINT: u32 = 4;
+const SIMULATION_BUDGET: Duration = Duration::from_millis(40);
 /// How long the exit waits for the window's screenshot before saving the render alone.
 const SCREENSHOT_TIMEOUT: Duration = Duration::from_secs(5);
 
@@ -54,7 +55,7 @@ impl Mean {
 /// The window's state.
 pub struct ViewApp {
     session: Session,
-    renderer: hair_render::Renderer,
+    renderer: RenderWorker,
     camera: OrbitCamera,
     head_sphere: HeadSphere,
     palette: PaletteItem,
@@ -91,8 +92,8 @@ impl ViewApp {
         let (eye, target) = hair::drivers::camera(&scene.camera, 0.0);
         let camera = OrbitCamera::from_eye_target(eye, target, scene.camera.fov_degrees.to_radians());
         let head_sphere = head_sphere(session.sim());
-        let renderer = hair_render::Renderer::new();
-        eprintln!("hair view: rendering with {}", renderer.describe());
+        let renderer = RenderWorker::start();
+        eprintln!("hair view: rendering with {}", renderer.describe);
         Self {
             session,
             renderer,
@@ -225,19 +226,23 @@ impl ViewApp {
         }
         let rate = f64::from(self.session.sim().scene().frame_rate);
         self.due += wall * f64::from(self.speed) * rate;
-        let mut n = (self.due.floor() as u32).min(MAX_FRAMES_PER_PAINT);
-        if let Some(limit) = limit {
-            n = n.min(limit - self.session.frames());
-        }
-        // What the cap leaves is dropped: the simulation slows down instead of piling up.
-        self.due = (self.due - f64::from(n)).min(1.0);
-        for _ in 0..n {
+        let started = Instant::now();
+        let mut n = 0;
+        while self.due >= 1.0
+            && n < MAX_FRAMES_PER_PAINT
+            && (n == 0 || started.elapsed() < SIMULATION_BUDGET)
+            && limit.is_none_or(|l| self.session.frames() < l)
+        {
             let r = self.step_frame();
+            self.due -= 1.0;
+            n += 1;
             if self.report("simulation", r).is_none() {
                 self.paused = true;
                 break;
             }
         }
+        // What the caps leave is dropped: the simulation slows down instead of piling up.
+        self.due = self.due.min(1.0);
     }
 
     fn begin_exit(&mut self, ctx: &egui::Context) {
@@ -323,7 +328,7 @@ impl ViewApp {
         ViewMetrics {
             scene: sim.scene().name.clone(),
             lod: self.session.policy().name().into(),
-            renderer: self.renderer.describe(),
+            renderer: self.renderer.describe.clone(),
             frames: self.session.frames(),
             substeps: sim.scene().substeps,
             sim_time_s: f64::from(sim.time()),
@@ -345,13 +350,14 @@ impl ViewApp {
     /// The left panel: palette, the tool's settings, the clock's controls.
     fn side_panel(&mut self, ui: &mut egui::Ui) {
         let ppp = ui.ctx().pixels_per_point();
+        ui.spacing_mut().slider_width = 80.0;
         ui.heading("Tools");
         let mut rects = Vec::new();
         for item in PaletteItem::ALL {
             let text = format!("{}  {}", item.shortcut(), item.label());
             let r = ui.add(
                 egui::Button::selectable(self.palette == item, text)
-                    .min_size(Vec2::new(150.0, 28.0)),
+                    .min_size(Vec2::new(170.0, 28.0)),
             );
             if r.clicked() {
                 self.palette = item;
@@ -389,6 +395,8 @@ impl ViewApp {
             if ui.button("Step").clicked() {
                 self.single_step();
             }
+        });
+        ui.horizontal(|ui| {
             if ui.button("Reset").clicked() {
                 self.reset();
             }
@@ -407,7 +415,7 @@ impl ViewApp {
         ui.separator();
         ui.small(
             "Tools: move over the head, press to apply; Shift+move turns the tool, \
-             [ ] nearer/farther, right drag orbits, wheel zooms. Space pause, \u{2192} step, \
+             [ ] nearer/farther, right drag orbits, wheel zooms. Space pause, Right arrow step, \
              R reset, Ctrl+Z undo, Q quit.",
         );
         if let Some(m) = &self.message {
@@ -487,11 +495,12 @@ impl ViewApp {
             self.session.queue(g);
         }
 
-        // The scene.
+        // The scene: a new image is asked for when the last one is in and something changed.
+        self.receive_image(&ctx);
         let size = render_size(rect.size());
         let key = (self.session.frames(), size, self.camera);
-        if self.rendered.as_ref() != Some(&key) {
-            self.render(&ctx, size);
+        if !self.renderer.busy && self.rendered.as_ref() != Some(&key) {
+            self.request_render(size);
             self.rendered = Some(key);
         }
         let painter = ui.painter_at(rect);
@@ -522,8 +531,7 @@ impl ViewApp {
         }
     }
 
-    fn render(&mut self, ctx: &egui::Context, size: [u32; 2]) {
-        let t = Instant::now();
+    fn request_render(&mut self, size: [u32; 2]) {
         let mut scene = crate::run::render_scene(self.session.sim());
         scene.camera = self.camera.render_camera();
         let settings = hair_render::RenderSettings {
@@ -531,11 +539,18 @@ impl ViewApp {
             height: size[1],
             ..hair_render::RenderSettings::default()
         };
-        let r = self
-            .renderer
-            .render_to_image(&scene, &settings)
-            .context("rendering");
-        let Some(image) = self.report("render", r) else {
+        if self.renderer.requests.send((scene, settings)).is_ok() {
+            self.renderer.busy = true;
+        }
+    }
+
+    /// Takes the worker's image, if one is done, into the view's texture.
+    fn receive_image(&mut self, ctx: &egui::Context) {
+        let Ok(done) = self.renderer.images.try_recv() else {
+            return;
+        };
+        self.renderer.busy = false;
+        let Some((image, ms)) = self.report("render", done) else {
             return;
         };
         let color = egui::ColorImage::from_rgba_unmultiplied(
@@ -549,7 +564,7 @@ impl ViewApp {
             }
         }
         self.last_image = Some(image);
-        self.render_ms.add(t.elapsed().as_secs_f64() * 1e3);
+        self.render_ms.add(ms);
     }
 
     /// The tool's area: a translucent cone (its silhouette: the hull of apex and rim) or the
@@ -674,7 +689,7 @@ impl eframe::App for ViewApp {
         self.keys(&ctx);
         self.advance(&ctx, wall);
         egui::Panel::left("palette")
-            .exact_size(180.0)
+            .exact_size(200.0)
             .resizable(false)
             .show(ui, |ui| self.side_panel(ui));
         egui::CentralPanel::default()
@@ -682,7 +697,47 @@ impl eframe::App for ViewApp {
             .show(ui, |ui| self.central(ui));
         self.finish_exit(&ctx);
         if !matches!(self.phase, Phase::Closed) {
-            ctx.request_repaint();
+            // About 60 window frames a second at most: the rest of the time is the renderer's.
+            ctx.request_repaint_after(Duration::from_millis(15));
+        }
+    }
+}
+
+/// A scene and how to render it.
+type RenderRequest = (hair_render::RenderScene, hair_render::RenderSettings);
+
+/// `hair-render` on its own thread: on a software rasteriser an image takes longer than a
+/// window frame, and the window must keep taking input meanwhile. One request at a time.
+struct RenderWorker {
+    requests: mpsc::Sender<RenderRequest>,
+    images: mpsc::Receiver<Result<(hair_render::RgbaImage, f64)>>,
+    busy: bool,
+    describe: String,
+}
+
+impl RenderWorker {
+    fn start() -> Self {
+        let (requests, inbox) = mpsc::channel::<RenderRequest>();
+        let (outbox, images) = mpsc::channel();
+        let renderer = hair_render::Renderer::new();
+        let describe = renderer.describe();
+        std::thread::spawn(move || {
+            while let Ok((scene, settings)) = inbox.recv() {
+                let t = Instant::now();
+                let image = renderer
+                    .render_to_image(&scene, &settings)
+                    .context("rendering")
+                    .map(|i| (i, t.elapsed().as_secs_f64() * 1e3));
+                if outbox.send(image).is_err() {
+                    break;
+                }
+            }
+        });
+        Self {
+            requests,
+            images,
+            busy: false,
+            describe,
         }
     }
 }
