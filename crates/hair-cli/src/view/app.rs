@@ -359,7 +359,12 @@ impl ViewApp {
                 egui::Button::selectable(self.palette == item, text)
                     .min_size(Vec2::new(170.0, 28.0)),
             );
-            if r.clicked() {
+            // A press counts, not only a click: on a slow frame the press and the release can
+            // arrive together.
+            let pressed_here = ui.input(|i| {
+                i.pointer.any_pressed() && i.pointer.press_origin().is_some_and(|p| r.rect.contains(p))
+            });
+            if r.clicked() || pressed_here {
                 self.palette = item;
             }
             rects.push((item.label(), r.rect));
@@ -671,6 +676,15 @@ impl ViewApp {
 }
 
 impl eframe::App for ViewApp {
+    fn raw_input_hook(&mut self, _ctx: &egui::Context, raw: &mut egui::RawInput) {
+        // For scripts that drive the window: `HAIR_VIEW_TRACE_INPUT=1` logs every input event.
+        if std::env::var_os("HAIR_VIEW_TRACE_INPUT").is_some() {
+            for e in &raw.events {
+                eprintln!("hair view input: {e:?}");
+            }
+        }
+    }
+
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         let now = Instant::now();
