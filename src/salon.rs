@@ -660,7 +660,7 @@ impl Salon {
     /// valid (time order, moves and releases of pressed tools) or the event is refused.
     pub(crate) fn push_event(&mut self, event: ToolEvent, now: Real) -> Result<(), SalonError> {
         let index = self.script.events.len();
-        if !(event.time >= now) {
+        if event.time.is_nan() || event.time < now {
             return Err(SalonError::Value {
                 index,
                 tool: event.tool.name(),

@@ -12,9 +12,8 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 fn on_path(program: &str) -> bool {
-    std::env::var_os("PATH").is_some_and(|paths| {
-        std::env::split_paths(&paths).any(|dir| dir.join(program).is_file())
-    })
+    std::env::var_os("PATH")
+        .is_some_and(|paths| std::env::split_paths(&paths).any(|dir| dir.join(program).is_file()))
 }
 
 fn required() -> bool {
@@ -127,7 +126,8 @@ fn rect(lines: &[String], name: &str) -> Option<[f32; 4]> {
 }
 
 fn replay_hash(scene: &Path) -> String {
-    let loaded = hair::Scene::load(scene.to_str().expect("utf-8 path")).expect("the recording loads");
+    let loaded =
+        hair::Scene::load(scene.to_str().expect("utf-8 path")).expect("the recording loads");
     let mut sim = hair::Simulation::new(&loaded, loaded.scene.lod).expect("the recording builds");
     for _ in 0..loaded.scene.frames * loaded.scene.substeps {
         sim.step().expect("a step");
@@ -145,8 +145,7 @@ fn water_dragged_across_the_hair_in_a_real_window_is_recorded_and_replays() {
         eprintln!("SKIPPED view_xvfb: {why}");
         return;
     }
-    let out: PathBuf =
-        std::env::temp_dir().join(format!("hair-view-xvfb-{}", std::process::id()));
+    let out: PathBuf = std::env::temp_dir().join(format!("hair-view-xvfb-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     std::fs::create_dir_all(&out).unwrap();
     let (metrics, shot, record) = (
@@ -202,7 +201,12 @@ fn water_dragged_across_the_hair_in_a_real_window_is_recorded_and_replays() {
     let water = rect(&lines, "palette water").expect("the water button");
     let view = rect(&lines, "view").expect("the view");
     let window = x.xdotool(&["search", "--sync", "--name", "hair view"]);
-    let window = window.lines().next().expect("a window id").trim().to_string();
+    let window = window
+        .lines()
+        .next()
+        .expect("a window id")
+        .trim()
+        .to_string();
     let at = |x: f32, y: f32| [format!("{}", x.round()), format!("{}", y.round())];
     let click = at(water[0] + 0.5 * water[2], water[1] + 0.5 * water[3]);
     x.xdotool(&["mousemove", "--window", &window, &click[0], &click[1]]);
@@ -236,32 +240,55 @@ fn water_dragged_across_the_hair_in_a_real_window_is_recorded_and_replays() {
             app.0 = None;
             break s;
         }
-        assert!(Instant::now() < deadline, "hair view did not exit after `q`");
+        assert!(
+            Instant::now() < deadline,
+            "hair view did not exit after `q`"
+        );
         std::thread::sleep(Duration::from_millis(100));
     };
     while let Ok(l) = rx.try_recv() {
         lines.push(l);
     }
-    assert!(status.success(), "hair view failed: {status}; stdout {lines:?}");
+    assert!(
+        status.success(),
+        "hair view failed: {status}; stdout {lines:?}"
+    );
 
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&metrics).expect("metrics written"))
             .expect("metrics are JSON");
     let water_kg = m["salon"]["water_kg"].as_f64().expect("salon.water_kg");
     assert!(water_kg > 0.0, "no water on the hair: {m}");
-    assert!(m["events"].as_u64().unwrap_or(0) >= 2, "press and release recorded: {m}");
+    assert!(
+        m["events"].as_u64().unwrap_or(0) >= 2,
+        "press and release recorded: {m}"
+    );
     let frames = m["frames"].as_u64().unwrap_or(0);
     assert!(frames > 0, "{m}");
 
-    let image = hair_render::image::open(&shot).expect("screenshot written").to_rgba8();
-    assert!(image.width() >= 800 && image.height() >= 500, "{:?}", image.dimensions());
+    let image = hair_render::image::open(&shot)
+        .expect("screenshot written")
+        .to_rgba8();
+    assert!(
+        image.width() >= 800 && image.height() >= 500,
+        "{:?}",
+        image.dimensions()
+    );
     let mut colours = std::collections::HashSet::new();
     for p in image.pixels() {
         colours.insert(p.0);
     }
-    assert!(colours.len() > 200, "a screenshot of {} colours is blank", colours.len());
+    assert!(
+        colours.len() > 200,
+        "a screenshot of {} colours is blank",
+        colours.len()
+    );
 
     let hash = m["state_hash"].as_str().expect("state_hash").to_string();
-    assert_eq!(replay_hash(&record), hash, "the recorded session replays to the view's state");
+    assert_eq!(
+        replay_hash(&record),
+        hash,
+        "the recorded session replays to the view's state"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -6,12 +6,12 @@
 //! scene when it changed, and draw. The simulation never depends on the window's frame rate:
 //! the clock runs on wall time, and a slow window only means fewer, larger catch-ups (capped).
 
+use super::ExitOptions;
 use super::input::{
     Aim, GestureMapper, HeadSphere, OrbitCamera, Outline, PaletteItem, ToolSettings,
     influence_outline, tool_pose,
 };
 use super::session::{Session, StageMs};
-use super::ExitOptions;
 use anyhow::{Context, Result};
 use eframe::egui::{self, Color32, Pos2, Rect, Sense, Stroke, Vec2};
 use hair::ssv::{Point, Real, Vector};
@@ -47,7 +47,11 @@ struct Mean {
 impl Mean {
     fn add(&mut self, x: f64) {
         self.count += 1;
-        let k = if self.count < 20 { 1.0 / self.count as f64 } else { 0.05 };
+        let k = if self.count < 20 {
+            1.0 / self.count as f64
+        } else {
+            0.05
+        };
         self.value += (x - self.value) * k;
     }
 }
@@ -90,7 +94,8 @@ impl ViewApp {
     pub fn new(session: Session, opts: ExitOptions) -> Self {
         let scene = session.sim().scene();
         let (eye, target) = hair::drivers::camera(&scene.camera, 0.0);
-        let camera = OrbitCamera::from_eye_target(eye, target, scene.camera.fov_degrees.to_radians());
+        let camera =
+            OrbitCamera::from_eye_target(eye, target, scene.camera.fov_degrees.to_radians());
         let head_sphere = head_sphere(session.sim());
         let renderer = RenderWorker::start();
         eprintln!("hair view: rendering with {}", renderer.describe);
@@ -194,7 +199,10 @@ impl ViewApp {
         let r = self.session.undo_last_stroke();
         if let Some(done) = self.report("undo", r) {
             self.message = Some(if done {
-                format!("undid the last stroke; replayed {} frames", self.session.frames())
+                format!(
+                    "undid the last stroke; replayed {} frames",
+                    self.session.frames()
+                )
             } else {
                 "nothing to undo (or a tool is held)".into()
             });
@@ -293,7 +301,9 @@ impl ViewApp {
                     eprintln!(
                         "hair view: the window's screenshot did not arrive; saving the render alone"
                     );
-                    self.last_image.clone().context("nothing rendered to save")?
+                    self.last_image
+                        .clone()
+                        .context("nothing rendered to save")?
                 }
             };
             hair_render::save_png(&image, path)?;
@@ -362,7 +372,8 @@ impl ViewApp {
             // A press counts, not only a click: on a slow frame the press and the release can
             // arrive together.
             let pressed_here = ui.input(|i| {
-                i.pointer.any_pressed() && i.pointer.press_origin().is_some_and(|p| r.rect.contains(p))
+                i.pointer.any_pressed()
+                    && i.pointer.press_origin().is_some_and(|p| r.rect.contains(p))
             });
             if r.clicked() || pressed_here {
                 self.palette = item;
@@ -378,7 +389,11 @@ impl ViewApp {
         if let Some(tool) = self.palette.tool() {
             ui.label(format!("{} settings", PaletteItem::Tool(tool).label()));
             let s = self.tool_settings(tool);
-            let reach_label = if tool == Tool::Scissors { "blade (m)" } else { "reach (m)" };
+            let reach_label = if tool == Tool::Scissors {
+                "blade (m)"
+            } else {
+                "reach (m)"
+            };
             ui.add(egui::Slider::new(&mut s.reach, 0.02..=0.6).text(reach_label));
             ui.add(egui::Slider::new(&mut s.angle, 0.05..=1.3).text("angle (rad)"));
             if tool != Tool::Scissors && tool != Tool::Grab {
@@ -394,7 +409,10 @@ impl ViewApp {
         }
         ui.separator();
         ui.horizontal(|ui| {
-            if ui.button(if self.paused { "Run" } else { "Pause" }).clicked() {
+            if ui
+                .button(if self.paused { "Run" } else { "Pause" })
+                .clicked()
+            {
                 self.paused = !self.paused;
             }
             if ui.button("Step").clicked() {
@@ -470,7 +488,9 @@ impl ViewApp {
             }
         }
         // The tool under the cursor; Shift turns it in place.
-        let cursor = response.hover_pos().or(ctx.pointer_latest_pos().filter(|p| rect.contains(*p)));
+        let cursor = response
+            .hover_pos()
+            .or(ctx.pointer_latest_pos().filter(|p| rect.contains(*p)));
         self.pose = None;
         if let (Some(_), Some(mut at)) = (tool, cursor) {
             if shift {
@@ -625,7 +645,11 @@ impl ViewApp {
         let st: StageMs = self.session.mean_stage_ms();
         let lod = lod_counts(sim);
         let salon = &last.salon;
-        let fps = if self.paint_ms.value > 0.0 { 1e3 / self.paint_ms.value } else { 0.0 };
+        let fps = if self.paint_ms.value > 0.0 {
+            1e3 / self.paint_ms.value
+        } else {
+            0.0
+        };
         let text = format!(
             "{:.0} fps  render {:.1} ms  sim frame {:.1} ms{}\n\
              step ms: grid {:.2}  lod {:.2}  hair-hair {:.2}  dynamics {:.2} (salon {:.2})  body {:.2}  geometry {:.2}\n\
@@ -694,8 +718,7 @@ impl eframe::App for ViewApp {
         }
         self.last_paint = now;
         self.paints += 1;
-        if ctx.input(|i| i.viewport().close_requested()) && matches!(self.phase, Phase::Running)
-        {
+        if ctx.input(|i| i.viewport().close_requested()) && matches!(self.phase, Phase::Running) {
             // Write the outputs first; the exit closes the window itself.
             ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
             self.begin_exit(&ctx);
@@ -892,7 +915,9 @@ fn convex_hull(mut pts: Vec<Pos2>) -> Vec<Pos2> {
             Box::new(pts.iter().rev())
         };
         for &p in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
                 hull.pop();
             }
             hull.push(p);

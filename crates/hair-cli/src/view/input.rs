@@ -134,7 +134,10 @@ impl OrbitCamera {
     pub fn from_eye_target(eye: Point, target: Point, fov_y: Real) -> Self {
         let d = eye - target;
         let distance = d.norm().max(1e-3);
-        let pitch = (d.y / distance).clamp(-1.0, 1.0).asin().clamp(-MAX_PITCH, MAX_PITCH);
+        let pitch = (d.y / distance)
+            .clamp(-1.0, 1.0)
+            .asin()
+            .clamp(-MAX_PITCH, MAX_PITCH);
         let yaw = d.x.atan2(d.z);
         Self {
             target,
@@ -406,9 +409,7 @@ impl GestureMapper {
             }
             return out;
         }
-        if button_down
-            && let (Some(tool), Some(p)) = (item.tool(), pose)
-        {
+        if button_down && let (Some(tool), Some(p)) = (item.tool(), pose) {
             out.push(Gesture {
                 tool,
                 action: ToolAction::Press,
@@ -532,7 +533,10 @@ mod tests {
         // Between the eye and the head.
         assert!((c.eye() - p).norm() < (c.eye() - head.centre).norm());
         let d = Vector::from(pose.direction);
-        assert!((d + p.coords.normalize()).norm() < 1e-4, "points at the centre");
+        assert!(
+            (d + p.coords.normalize()).norm() < 1e-4,
+            "points at the centre"
+        );
         // `up` is normal to the direction (the scissors need a blade plane).
         assert!(Vector::from(pose.up).dot(&d).abs() < 1e-5);
     }
@@ -641,7 +645,10 @@ mod tests {
         assert!(m.update(sc, true, Some(pose_at(0.2)), s).is_empty());
         let g = m.update(PaletteItem::Tool(Tool::Water), true, Some(pose_at(0.2)), s);
         assert_eq!(g.len(), 1);
-        assert_eq!((g[0].tool, g[0].action), (Tool::Scissors, ToolAction::Release));
+        assert_eq!(
+            (g[0].tool, g[0].action),
+            (Tool::Scissors, ToolAction::Release)
+        );
     }
 
     #[test]
@@ -669,6 +676,9 @@ mod tests {
             panic!("scissors have a triangle");
         };
         assert!((t[1] - t[0]).norm() - 0.2 < 1e-6);
-        assert!(t.iter().all(|p| p.y.abs() < 1e-6), "blades open in the plane normal to up");
+        assert!(
+            t.iter().all(|p| p.y.abs() < 1e-6),
+            "blades open in the plane normal to up"
+        );
     }
 }

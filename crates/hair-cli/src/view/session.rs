@@ -372,7 +372,10 @@ mod tests {
         for _ in 0..loaded.scene.frames * loaded.scene.substeps {
             replay.step().unwrap();
         }
-        assert_eq!(format!("{:016x}", replay.state_hash()), format!("{hash:016x}"));
+        assert_eq!(
+            format!("{:016x}", replay.state_hash()),
+            format!("{hash:016x}")
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 
