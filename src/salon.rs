@@ -654,6 +654,29 @@ impl Salon {
         &self.script
     }
 
+    // view (issue 9): live events from an interactive session.
+    /// Appends a live event to the script; `now` is the simulated time, before which every
+    /// event has been consumed, so an event at or after it is still ahead. The script stays
+    /// valid (time order, moves and releases of pressed tools) or the event is refused.
+    pub(crate) fn push_event(&mut self, event: ToolEvent, now: Real) -> Result<(), SalonError> {
+        let index = self.script.events.len();
+        if event.time.is_nan() || event.time < now {
+            return Err(SalonError::Value {
+                index,
+                tool: event.tool.name(),
+                time: event.time,
+                field: "time",
+                message: format!("is before the simulated time {now} s: already past"),
+            });
+        }
+        self.script.events.push(event);
+        if let Err(e) = self.script.validate() {
+            self.script.events.pop();
+            return Err(e);
+        }
+        Ok(())
+    }
+
     /// The areas of the pressed tools (head frame) as of the last step: their cells wake.
     pub fn volumes(&self) -> &[InfluenceVolume] {
         &self.volumes

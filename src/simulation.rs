@@ -340,6 +340,50 @@ impl Simulation {
         &self.salon
     }
 
+    // view (issue 9): live input for an interactive session, recorded as a replayable script.
+    /// A time for a live tool event that the next step applies and a replay of the recorded
+    /// script applies at the same step: mid-way through the next step. The salon stage takes
+    /// the events before the end of its step, so a time on a step boundary would hang on
+    /// rounding; mid-way leaves half a step of margin on both sides.
+    pub fn next_event_time(&self) -> Real {
+        self.time + 0.5 * self.settings.dt
+    }
+
+    /// Appends a live tool event to the running tool script (validated as a script's events
+    /// are: in time order, not before the simulated time, moves and releases of pressed tools
+    /// only). Use [`Simulation::next_event_time`] for its time; a script of the same events
+    /// then replays to the same state.
+    pub fn push_tool_event(&mut self, event: crate::salon::ToolEvent) -> Result<(), HairError> {
+        self.salon.push_event(event.clone(), self.time)?;
+        self.scene.tools.events.push(event);
+        Ok(())
+    }
+
+    /// Appends a camera keyframe for the adaptive LOD's view (and the scene's camera path):
+    /// finite, not before the simulated time nor the last key. Push the held camera at the
+    /// current time and the new one at [`Simulation::next_event_time`], and a replay of the
+    /// scene's camera path sees exactly the views the live steps saw.
+    pub fn push_camera_key(&mut self, key: crate::scene::CameraKey) -> Result<(), HairError> {
+        let bad = |message: String| HairError::SceneValue {
+            file: "live camera".into(),
+            field: "camera.keys".into(),
+            message,
+        };
+        let finite = key.eye.iter().chain(&key.target).all(|x| x.is_finite());
+        if !(finite && key.time.is_finite()) {
+            return Err(bad("a key must be finite".into()));
+        }
+        let last = self.scene.camera.keys.last().map_or(0.0, |k| k.time);
+        if key.time < self.time || key.time < last {
+            return Err(bad(format!(
+                "a key at t = {} s is before the simulated time {} s or the last key at {last} s",
+                key.time, self.time
+            )));
+        }
+        self.scene.camera.keys.push(key);
+        Ok(())
+    }
+
     /// The body, if any.
     pub fn body(&self) -> Option<&BodyModel> {
         self.body.as_ref()

@@ -14,6 +14,7 @@ mod scenes;
 mod stability;
 mod strand_setup;
 mod study;
+mod view;
 
 use clap::{Parser, Subcommand};
 
@@ -45,6 +46,8 @@ enum Command {
     RenderCheck(render_check::Args),
     /// Every LOD policy and collision method on a scene: cost and error against the finest.
     Study(study::Args),
+    /// The interactive salon window: tools on the hair, recorded and replayable.
+    View(view::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -59,6 +62,7 @@ fn main() -> std::process::ExitCode {
         Command::Hierarchy(args) => hierarchy::run(args),
         Command::RenderCheck(args) => render_check::run(args),
         Command::Study(args) => study::run(args),
+        Command::View(args) => view::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
