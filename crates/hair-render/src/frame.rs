@@ -51,16 +51,22 @@ fn cols(m: &Matrix4<f32>) -> [f32; 16] {
 pub fn camera_view_proj(scene: &RenderScene, aspect: Real) -> Matrix4<f32> {
     let c = &scene.camera;
     let view = Matrix4::look_at_rh(&c.eye, &c.target, &c.up);
-    let f = 1.0 / (0.5 * c.fov_y).tan();
-    let (n, fa) = (c.near, c.far);
-    #[rustfmt::skip]
-    let proj = Matrix4::new(
+    perspective_zero_to_one(c.fov_y, aspect, c.near, c.far) * view
+}
+
+/// Right-handed perspective projection onto wgpu's clip space (depth in `[0, 1]`, near at 0):
+/// vertical field of view `fov_y` (rad), width over height `aspect`, clip distances `near` and
+/// `far` (m). nalgebra's own maps depth to `[-1, 1]`, OpenGL's convention.
+#[rustfmt::skip]
+pub fn perspective_zero_to_one(fov_y: Real, aspect: Real, near: Real, far: Real) -> Matrix4<f32> {
+    let f = 1.0 / (0.5 * fov_y).tan();
+    let (n, fa) = (near, far);
+    Matrix4::new(
         f / aspect, 0.0, 0.0, 0.0,
         0.0, f, 0.0, 0.0,
         0.0, 0.0, fa / (n - fa), n * fa / (n - fa),
         0.0, 0.0, -1.0, 0.0,
-    );
-    proj * view
+    )
 }
 
 /// Light view-projection: orthographic over the fitted frame, depth in `[0, 1]`.

@@ -64,7 +64,7 @@ pub mod test_scenes;
 
 pub use cpu::CpuRenderer;
 pub use error::RenderError;
-pub use frame::Globals;
+pub use frame::{Globals, perspective_zero_to_one};
 pub use gpu::{GpuRenderer, f16_to_f32, osm_shader_source, shade_shader_source};
 pub use image::{self, RgbaImage};
 pub use osm::{

@@ -189,16 +189,7 @@ impl OrbitCamera {
     pub fn view_proj(&self, width: Real, height: Real) -> Matrix4<Real> {
         let aspect = width / height.max(1.0);
         let view = Matrix4::look_at_rh(&self.eye(), &self.target, &Vector::y());
-        let f = 1.0 / (0.5 * self.fov_y).tan();
-        let (n, fa) = (NEAR, FAR);
-        #[rustfmt::skip]
-        let proj = Matrix4::new(
-            f / aspect, 0.0, 0.0, 0.0,
-            0.0, f, 0.0, 0.0,
-            0.0, 0.0, fa / (n - fa), n * fa / (n - fa),
-            0.0, 0.0, -1.0, 0.0,
-        );
-        proj * view
+        hair_render::perspective_zero_to_one(self.fov_y, aspect, NEAR, FAR) * view
     }
 
     /// Pixel position (from the top left) of `p` in a `width` x `height` image, or `None`
