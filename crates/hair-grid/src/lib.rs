@@ -46,13 +46,12 @@
 //! Where the time goes: 15.5 M in-cell box tests at the default cell size, 2.6 M box hits through
 //! the neighbour and owner tests, 1.3 M exact tests, and in the rebuild the cover walk and the
 //! two counting sorts. The earlier-cell bit sets and the branch-free scan of the box hits then
-//! took the pair search from 125 ms to 107 ms of one-thread CPU time (best of four runs on the
-//! same loaded machine; 19.3 M to 12.1 M mispredicted branches under callgrind for two rebuilds
-//! and three searches), and the rebuild from 97 ms to 111 ms (the bit sets are computed and
-//! sorted with the entries). Smaller or larger cells (0.5 to 1.3 cm) barely change the
-//! candidates (1.0 to 1.24 M: the box overlaps bound them), and copying each section's box and
-//! core next to every entry, so that the search reads cells contiguously, costs more in the sort
-//! than it saves.
+//! cut the pair search by about 15% in `cargo run --release -- bench grid --json` (`pairs_ms`,
+//! old and new measured alternately on the same machine), mostly through fewer mispredicted
+//! branches, and made the rebuild a little slower (the bit sets are computed and sorted with the
+//! entries). Smaller or larger cells (0.5 to 1.3 cm) barely change `candidates` (the box
+//! overlaps bound them), and copying each section's box and core next to every entry, so that
+//! the search reads cells contiguously, costs more in the sort than it saves.
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are

@@ -621,13 +621,13 @@ impl ViewApp {
         let line = Stroke::new(1.5, Color32::from_rgb(r, g, b));
         match influence_outline(tool, pose, s, 32) {
             Outline::Cone { apex, rim } => {
-                let mut pts: Vec<Pos2> = rim.iter().filter_map(project).collect();
+                let rim: Vec<Pos2> = rim.iter().filter_map(project).collect();
                 let Some(a) = project(&apex) else { return };
+                let mut pts = rim.clone();
                 pts.push(a);
                 let hull = convex_hull(pts);
                 painter.add(egui::Shape::convex_polygon(hull, fill, line));
-                let rim2: Vec<Pos2> = rim.iter().filter_map(project).collect();
-                painter.add(egui::Shape::closed_line(rim2, line));
+                painter.add(egui::Shape::closed_line(rim, line));
                 painter.circle_filled(a, 4.0, Color32::from_rgb(r, g, b));
             }
             Outline::Triangle(t) => {
