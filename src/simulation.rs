@@ -848,9 +848,9 @@ impl Simulation {
     /// node before it, so a segment hanging straight into a surface swings out of it instead of
     /// being re-aimed along itself. In the first `depenetration_steps` steps the push is spread
     /// over the remaining steps, so hair that starts inside comes out gently. Passes repeat on
-    /// the skeletons they moved until none is in contact, or [`BODY_PASSES`] have run and no node is
-    /// deeper than half the tolerance, or [`MAX_BODY_PASSES`] have run; the last
-    /// detection measures what remains. Returns the nodes in contact on the first pass and the
+    /// the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of the
+    /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
+    /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Returns the nodes in contact on the first pass and the
     /// deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
@@ -886,6 +886,10 @@ impl Simulation {
         let mut contacts = 0;
         let mut deepest: Real = 0.0;
         let tolerance = 0.5 * self.scene.collision.tolerance;
+        // A node the last pass left within rounding of the surface is in contact but needs no
+        // refit: without this skin every pass found a few hundred nodes a few nanometres in and
+        // ran all its passes to move them by nothing.
+        let skin = CONTACT_SKIN * self.scene.collision.tolerance;
         for pass in 0..=MAX_BODY_PASSES {
             let positions = self.state.positions();
             self.body_nodes
@@ -903,6 +907,15 @@ impl Simulation {
             for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
                 let Some((d, n)) = hit else { continue };
                 deepest = deepest.max(-d);
+                self.constraints.push(VelocityConstraint {
+                    node: bn.node,
+                    normal: *n,
+                    friction,
+                });
+                if bn.radius - d <= skin {
+                    // In contact but already out: only its approach is removed.
+                    continue;
+                }
                 let p = positions[bn.node as usize];
                 let lift = (bn.radius - d) * fraction;
                 let mut target = p + n * lift;
@@ -923,26 +936,23 @@ impl Simulation {
                     node: bn.node,
                     delta: target - p,
                 });
-                self.constraints.push(VelocityConstraint {
-                    node: bn.node,
-                    normal: *n,
-                    friction,
-                });
                 self.touched[bn.skeleton as usize] = true;
             }
             if pass == 0 {
-                contacts = self.corrections.len();
+                contacts = self.constraints.len();
             }
-            // Past the usual passes, go on only while a node is deeper than the tolerance
-            // (creases where two surfaces push a node back and forth need a few more).
-            if self.corrections.is_empty()
+            let done = self.corrections.is_empty()
                 || pass == MAX_BODY_PASSES
-                || (pass >= BODY_PASSES && deepest <= tolerance)
-            {
+                || (pass >= BODY_PASSES && deepest <= tolerance);
+            if !done {
+                self.state.apply_corrections(&self.corrections)?;
+            }
+            if !self.constraints.is_empty() {
+                self.state.apply_velocity_constraints(&self.constraints)?;
+            }
+            if done {
                 break;
             }
-            self.state.apply_corrections(&self.corrections)?;
-            self.state.apply_velocity_constraints(&self.constraints)?;
             let touched = &self.touched;
             self.body_nodes.retain(|bn| touched[bn.skeleton as usize]);
         }
@@ -1051,6 +1061,10 @@ impl Simulation {
 
 /// Detect-and-correct passes of the hard body constraint per step (a final detection follows).
 pub const BODY_PASSES: usize = 8;
+
+/// Depth, as a fraction of the scene's penetration tolerance, below which a node in contact with
+/// the body is not moved (its approach is still removed).
+pub const CONTACT_SKIN: Real = 0.01;
 
 /// Most passes of the hard body constraint when nodes stay deeper than the tolerance.
 pub const MAX_BODY_PASSES: usize = 32;

@@ -45,6 +45,7 @@ mod error;
 mod integrate;
 pub mod reference;
 mod response;
+mod run;
 mod salon_ops;
 mod state;
 mod strand;

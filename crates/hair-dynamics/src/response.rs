@@ -6,6 +6,7 @@
 //! node cannot move alone: each segment is re-aimed at its corrected target in turn.
 
 use crate::bend::{Bend, bend_between};
+use crate::run::{Run, for_each_skeleton};
 use crate::{DynamicsError, Point, Real, StrandState, Vector};
 use nalgebra::Matrix3;
 
@@ -55,6 +56,50 @@ pub(crate) fn fit_angles(
     }
 }
 
+/// Removes the approach of node `j` (within skeleton `s`, whose nodes start at `lo` in `run`)
+/// along the constraint's normal that its own joint causes, and applies friction.
+fn constrain_node(run: &mut Run<'_>, s: usize, lo: usize, j: usize, c: &VelocityConstraint) {
+    let root = &mut run.roots[s - run.first];
+    let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
+    if j == 0 {
+        // A root: only a free root moves, and it moves with its velocity.
+        if root.free {
+            let v = root.velocity;
+            let vn = v.dot(&n);
+            if vn < 0.0 {
+                root.velocity = (v - n * vn) * (1.0 - c.friction.min(1.0));
+            }
+        }
+        return;
+    }
+    let i = lo + j;
+    // World axes of the node's joint, from the parent's frame.
+    let mut rot = root.rotation;
+    for k in lo + 1..i {
+        rot *= Bend::new(run.theta[k], run.phi[k]).rotation;
+    }
+    let bend = Bend::new(run.theta[i], run.phi[i]);
+    let (ax, ay) = (rot * bend.axis_x, rot * bend.axis_y);
+    let r = run.positions[i] - run.positions[i - 1];
+    // Normal velocity of the node due to its own joint: g . w, g = (n . (ax x r), n . (ay x r)).
+    let (gx, gy) = (n.dot(&ax.cross(&r)), n.dot(&ay.cross(&r)));
+    let (wx, wy) = (run.omega_theta[i], run.omega_phi[i]);
+    let into = gx * wx + gy * wy;
+    let g2 = gx * gx + gy * gy;
+    if into < 0.0 && g2 > 0.0 {
+        let (px, py) = (wx - gx * into / g2, wy - gy * into / g2);
+        let removed = ((wx - px).powi(2) + (wy - py).powi(2)).sqrt();
+        let left = (px * px + py * py).sqrt();
+        let keep = if left > 0.0 {
+            (1.0 - c.friction.min(1.0) * removed / left).max(0.0)
+        } else {
+            0.0
+        };
+        run.omega_theta[i] = px * keep;
+        run.omega_phi[i] = py * keep;
+    }
+}
+
 impl StrandState {
     /// Moves nodes by the given displacements and refits the angles of every skeleton touched,
     /// root to tip, keeping segment lengths. Roots of attached skeletons do not move.
@@ -86,26 +131,30 @@ impl StrandState {
         }
         touched.sort_unstable();
         touched.dedup();
-        for &s in &touched {
-            let id = crate::SkeletonId(s);
-            let range = self.nodes(id);
-            let root = self.roots[s as usize];
+        // Skeletons are independent: refit them in parallel.
+        let (run, offsets, counts) = self.run_with_layout();
+        let targets_ref = &targets;
+        let touched_ref = &touched;
+        for_each_skeleton(run, &touched, offsets, &|run, k| {
+            let s = touched_ref[k] as usize;
+            let r = run.local_nodes(s, offsets, counts);
+            let g = offsets[s] as usize..offsets[s] as usize + r.len();
+            let root = &mut run.roots[s - run.first];
             if root.free {
                 // A free root follows its correction like any node.
-                let r = &mut self.roots[s as usize];
-                r.position = targets[range.start];
+                root.position = targets_ref[g.start];
             }
-            let root = self.roots[s as usize];
+            let root = *root;
             fit_angles(
                 &root.rotation,
                 root.position,
-                &targets[range.clone()],
-                &self.length[range.clone()],
-                &mut self.theta[range.clone()],
-                &mut self.phi[range.clone()],
+                &targets_ref[g],
+                &run.length[r.clone()],
+                &mut run.theta[r.clone()],
+                &mut run.phi[r.clone()],
             );
-            self.refresh_positions(id);
-        }
+            run.refresh(s, r);
+        });
         self.target_scratch = targets;
         self.touched_scratch = touched;
         Ok(())
@@ -130,57 +179,40 @@ impl StrandState {
             crate::error::finite_vec("constraint.normal", &c.normal)?;
             crate::error::non_negative("constraint.friction", c.friction)?;
         }
+        // Group the constraints by skeleton, keeping their order within each: a skeleton's
+        // constraints are taken in turn, and skeletons in parallel.
+        let mut order = std::mem::take(&mut self.order_scratch);
+        let mut groups = std::mem::take(&mut self.group_scratch);
         let mut touched = std::mem::take(&mut self.touched_scratch);
+        order.clear();
+        order.extend(0..constraints.len() as u32);
+        order.sort_unstable_by_key(|&k| {
+            (self.skeleton_of(constraints[k as usize].node as usize), k)
+        });
         touched.clear();
-        for c in constraints {
-            let i = c.node as usize;
-            let s = self.skeleton_of(i) as usize;
-            touched.push(s as u32);
-            let start = self.offsets[s] as usize;
-            if i == start {
-                // A root: only a free root moves, and it moves with its velocity.
-                if self.roots[s].free {
-                    let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
-                    let v = self.roots[s].velocity;
-                    let vn = v.dot(&n);
-                    if vn < 0.0 {
-                        self.roots[s].velocity = (v - n * vn) * (1.0 - c.friction.min(1.0));
-                    }
-                }
-                continue;
-            }
-            let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
-            // World axes of the node's joint, from the parent's frame.
-            let mut rot = self.roots[s].rotation;
-            for k in start + 1..i {
-                rot *= Bend::new(self.theta[k], self.phi[k]).rotation;
-            }
-            let bend = Bend::new(self.theta[i], self.phi[i]);
-            let (ax, ay) = (rot * bend.axis_x, rot * bend.axis_y);
-            let r = self.positions[i] - self.positions[i - 1];
-            // Normal velocity of the node due to its own joint: g . w, g = (n . (ax x r), n . (ay x r)).
-            let (gx, gy) = (n.dot(&ax.cross(&r)), n.dot(&ay.cross(&r)));
-            let (wx, wy) = (self.omega_theta[i], self.omega_phi[i]);
-            let into = gx * wx + gy * wy;
-            let g2 = gx * gx + gy * gy;
-            if into < 0.0 && g2 > 0.0 {
-                let (px, py) = (wx - gx * into / g2, wy - gy * into / g2);
-                let removed = ((wx - px).powi(2) + (wy - py).powi(2)).sqrt();
-                let left = (px * px + py * py).sqrt();
-                let keep = if left > 0.0 {
-                    (1.0 - c.friction.min(1.0) * removed / left).max(0.0)
-                } else {
-                    0.0
-                };
-                self.omega_theta[i] = px * keep;
-                self.omega_phi[i] = py * keep;
+        groups.clear();
+        for (at, &k) in order.iter().enumerate() {
+            let s = self.skeleton_of(constraints[k as usize].node as usize);
+            if touched.last() != Some(&s) {
+                touched.push(s);
+                groups.push(at as u32);
             }
         }
-        touched.sort_unstable();
-        touched.dedup();
-        for &s in &touched {
-            self.refresh_positions(crate::SkeletonId(s));
-        }
+        groups.push(order.len() as u32);
+        let (run, offsets, counts) = self.run_with_layout();
+        let (order_ref, groups_ref, touched_ref) = (&order, &groups, &touched);
+        for_each_skeleton(run, &touched, offsets, &|run, k| {
+            let s = touched_ref[k] as usize;
+            let r = run.local_nodes(s, offsets, counts);
+            let group = &order_ref[groups_ref[k] as usize..groups_ref[k + 1] as usize];
+            for &ci in group {
+                let c = &constraints[ci as usize];
+                constrain_node(run, s, r.start, c.node as usize - offsets[s] as usize, c);
+            }
+            run.refresh(s, r);
+        });
+        self.order_scratch = order;
+        self.group_scratch = groups;
         self.touched_scratch = touched;
         Ok(())
     }

@@ -146,6 +146,9 @@ pub struct StrandState {
     pub(crate) force_scratch: Vec<Vector>,
     pub(crate) target_scratch: Vec<Point>,
     pub(crate) touched_scratch: Vec<u32>,
+    /// Constraint indices grouped by skeleton, and where each skeleton's group starts.
+    pub(crate) order_scratch: Vec<u32>,
+    pub(crate) group_scratch: Vec<u32>,
 }
 
 macro_rules! node_field {
@@ -424,25 +427,7 @@ impl StrandState {
     /// Recomputes positions (and velocities) of one skeleton from its angles.
     pub fn refresh_positions(&mut self, id: SkeletonId) {
         let range = self.nodes(id);
-        let root = self.root_dyn(id.0 as usize);
-        let n = range.len();
-        // Collision response calls this inside the step loop: reuse one scratch per thread.
-        REFRESH_SCRATCH.with(|cell| {
-            let mut guard = cell.borrow_mut();
-            let (sc, q, w) = &mut *guard;
-            sc.reserve(n, false);
-            q.clear();
-            w.clear();
-            for i in range.start + 1..range.end {
-                q.extend([self.theta[i], self.phi[i]]);
-                w.extend([self.omega_theta[i], self.omega_phi[i]]);
-            }
-            crate::strand::forward(&root, q, w, &self.length[range.clone()], sc);
-            for (k, i) in range.enumerate() {
-                self.positions[i] = Point::from(sc.pos[k]);
-                self.velocities[i] = sc.vel[k];
-            }
-        });
+        self.run_all().refresh(id.0 as usize, range);
     }
 
     pub(crate) fn root_dyn(&self, s: usize) -> crate::strand::RootDyn<Real> {
@@ -584,10 +569,4 @@ pub(crate) fn angles_of_polyline(
         rot *= crate::bend::Bend::new(x, y).rotation;
     }
     (theta, phi)
-}
-
-type RefreshScratch = (crate::strand::Scratch<Real>, Vec<Real>, Vec<Real>);
-
-thread_local! {
-    static REFRESH_SCRATCH: std::cell::RefCell<RefreshScratch> = std::cell::RefCell::new(Default::default());
 }

@@ -11,7 +11,7 @@
 mod implicit_coupled;
 
 use crate::environment::LocalEnv;
-use crate::state::RootState;
+use crate::run::Run;
 use crate::strand::{self, RootDyn, Scratch, StrandParams};
 use crate::{DynamicsError, Environment, Point, Real, StrandState, Vector};
 use nalgebra::{RealField, Vector3};
@@ -333,60 +333,6 @@ thread_local! {
     static SCRATCH: RefCell<(Scratch<Real>, Vec<Real>, Vec<Real>)> = RefCell::new(Default::default());
 }
 
-/// Mutable views of a contiguous run of skeletons.
-struct Run<'a> {
-    first: usize,
-    node_base: usize,
-    theta: &'a mut [Real],
-    phi: &'a mut [Real],
-    omega_theta: &'a mut [Real],
-    omega_phi: &'a mut [Real],
-    length: &'a mut [Real],
-    positions: &'a mut [Point],
-    velocities: &'a mut [Vector],
-    roots: &'a mut [RootState],
-}
-
-impl<'a> Run<'a> {
-    fn split(self, mid: usize, at_node: usize) -> (Run<'a>, Run<'a>) {
-        let k = at_node - self.node_base;
-        let (t0, t1) = self.theta.split_at_mut(k);
-        let (p0, p1) = self.phi.split_at_mut(k);
-        let (a0, a1) = self.omega_theta.split_at_mut(k);
-        let (b0, b1) = self.omega_phi.split_at_mut(k);
-        let (l0, l1) = self.length.split_at_mut(k);
-        let (x0, x1) = self.positions.split_at_mut(k);
-        let (v0, v1) = self.velocities.split_at_mut(k);
-        let (r0, r1) = self.roots.split_at_mut(mid - self.first);
-        (
-            Run {
-                first: self.first,
-                node_base: self.node_base,
-                theta: t0,
-                phi: p0,
-                omega_theta: a0,
-                omega_phi: b0,
-                length: l0,
-                positions: x0,
-                velocities: v0,
-                roots: r0,
-            },
-            Run {
-                first: mid,
-                node_base: at_node,
-                theta: t1,
-                phi: p1,
-                omega_theta: a1,
-                omega_phi: b1,
-                length: l1,
-                positions: x1,
-                velocities: v1,
-                roots: r1,
-            },
-        )
-    }
-}
-
 /// Read-only inputs shared by every worker.
 struct Shared<'a> {
     state_offsets: &'a [u32],
@@ -408,7 +354,7 @@ struct Shared<'a> {
 }
 
 /// Nodes per leaf of the parallel split: big enough to amortise the fork, small enough to balance.
-const GRAIN_NODES: usize = 4096;
+const GRAIN_NODES: usize = 512;
 
 fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
     let count = run.roots.len();
