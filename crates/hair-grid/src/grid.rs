@@ -242,6 +242,11 @@ pub(crate) fn walk_core(
     }
 }
 
+/// Points and segments whose cell range holds at most this many cells (and at most 4 along each
+/// axis) are covered by testing each cell of the range ([`cover::short_segment`]), into a local
+/// array; the others by the slab walk.
+const SHORT: usize = 32;
+
 const AXES: [char; 3] = ['x', 'y', 'z'];
 const MASK21: u64 = (1 << 21) - 1;
 
@@ -587,6 +592,7 @@ impl Grid {
                 *error = None;
                 *lo = [i64::MAX; 3];
                 *hi = [i64::MIN; 3];
+                let mut buf = [[0i64; 3]; SHORT];
                 for (l, s) in secs.iter().enumerate() {
                     let index = ci * CHUNK + l;
                     if error.is_some() {
@@ -635,9 +641,32 @@ impl Grid {
                     if error.is_some() {
                         break;
                     }
-                    let res = walk_core(&v[..n], r, &clip, limit, scratch, &mut |c| {
-                        keys.push(pack_i64(c));
-                    });
+                    let first = keys.len();
+                    // Fast path for a point or a segment: the walk fills a small local array,
+                    // whose coordinates then give the earlier-cell bit sets directly.
+                    let mut res = Ok(0);
+                    let mut fast = false;
+                    let extent = [0, 1, 2].map(|k| ch[k] - cl[k] + 1);
+                    let short = extent.iter().all(|&e| e <= 4)
+                        && extent[0] * extent[1] * extent[2] <= SHORT as i64;
+                    if n <= 2 && short {
+                        let m = cover::short_segment(v[0], v[n - 1], r, cl, ch, &mut buf);
+                        if m as u64 > limit {
+                            res = Err(cover::OverLimit);
+                        } else {
+                            keys.extend(buf[..m].iter().map(|&c| pack_i64(c)));
+                            crate::pairs::earlier_bits(&buf[..m], earlier);
+                            fast = true;
+                        }
+                    }
+                    if !fast && res.is_ok() {
+                        res = walk_core(&v[..n], r, &clip, limit, scratch, &mut |c| {
+                            keys.push(pack_i64(c));
+                        });
+                        if res.is_ok() {
+                            crate::pairs::earlier_cells(&keys[first..], earlier);
+                        }
+                    }
                     if res.is_err() {
                         *error = Some(GridError::TooManyCells {
                             what: "section",
@@ -647,8 +676,6 @@ impl Grid {
                         });
                         break;
                     }
-                    let first = *start.last().unwrap_or(&0) as usize;
-                    crate::pairs::earlier_cells(&keys[first..], earlier);
                     start.push(keys.len() as u32);
                 }
             });
