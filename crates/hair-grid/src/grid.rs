@@ -78,6 +78,8 @@ pub(crate) struct Rec {
 #[derive(Debug, Default)]
 pub(crate) struct CoverChunk {
     pub keys: Vec<u64>,
+    /// Dense path: each entry's index in the box of the covers (set by the count pass).
+    pub dense: Vec<u32>,
     pub earlier: Vec<u64>,
     pub start: Vec<u32>,
     scratch: Vec<[i64; 3]>,
@@ -484,8 +486,6 @@ impl Grid {
         self.entries = 0;
         self.dense = false;
         self.prefix.clear();
-        self.sorted_items.clear();
-        self.entry_earlier.clear();
         self.cell_keys.clear();
         self.cell_start.clear();
         self.cell_start.push(0);
@@ -578,6 +578,7 @@ impl Grid {
             .for_each(|(ci, (((chunk, secs), recs), shapes))| {
                 let CoverChunk {
                     keys,
+                    dense: _,
                     earlier,
                     start,
                     scratch,
@@ -709,8 +710,6 @@ impl Grid {
         let pk = &mut self.packed;
         // Cell index of each section's first cell (`n_cells` for an empty cover).
         pk.first.resize(n.max(pk.first.len()), 0);
-        let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
-        let dims = self.dims;
         let (dense, dense_cell, cell_keys) = (self.dense, &self.dense_cell, &self.cell_keys);
         pk.first[..n]
             .par_chunks_mut(CHUNK)
@@ -721,7 +720,7 @@ impl Grid {
                     *f = if s == e {
                         n_cells as u32
                     } else if dense {
-                        dense_cell[dense_of(ch.keys[s], bo, dims) as usize]
+                        dense_cell[ch.dense[s] as usize]
                     } else {
                         cell_keys
                             .binary_search(&ch.keys[s])
@@ -767,10 +766,13 @@ impl Grid {
             });
         // Renumber the entries.
         let rank = &pk.rank;
-        pk.items.resize(self.sorted_items.len(), 0);
-        pk.items
+        let entries = self.entries;
+        if pk.items.len() < entries {
+            pk.items.resize(entries, 0);
+        }
+        pk.items[..entries]
             .par_chunks_mut(1 << 14)
-            .zip(self.sorted_items.par_chunks(1 << 14))
+            .zip(self.sorted_items[..entries].par_chunks(1 << 14))
             .for_each(|(out, inp)| {
                 for (o, &i) in out.iter_mut().zip(inp) {
                     *o = rank[i as usize];
@@ -790,17 +792,18 @@ impl Grid {
         self.dense = box_cells <= (4 * entries as u64).max(1 << 16)
             && box_cells < u64::from(u32::MAX)
             && entries < u32::MAX as usize;
-        let chunks = &self.chunks[..self.n_chunks];
-        self.sorted_items.clear();
-        self.sorted_items.resize(entries, 0);
-        self.entry_earlier.clear();
-        self.entry_earlier.resize(entries, 0);
+        // Only grown: every entry below `entries` is written below.
+        if self.sorted_items.len() < entries {
+            self.sorted_items.resize(entries, 0);
+            self.entry_earlier.resize(entries, 0);
+        }
         self.cell_keys.clear();
         self.cell_start.clear();
         self.cell_start.push(0);
         let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
         let dims = self.dims;
         if self.dense {
+            let chunks = &mut self.chunks[..self.n_chunks];
             let nb = box_cells as usize;
             // Blocks of chunks, one per thread: each counts and places only its own entries.
             // Within a cell the entries of block 0 come first, then block 1's, and so on, so
@@ -820,16 +823,20 @@ impl Grid {
             let counts = &mut self.block_counts[..blocks];
             counts
                 .par_iter_mut()
-                .zip(chunks.par_chunks(per_block))
+                .zip(chunks.par_chunks_mut(per_block))
                 .for_each(|(count, chs)| {
                     count.clear();
                     count.resize(nb, 0);
                     for ch in chs {
-                        for &k in &ch.keys {
-                            count[dense_of(k, bo, dims) as usize] += 1;
-                        }
+                        ch.dense.clear();
+                        ch.dense.extend(ch.keys.iter().map(|&k| {
+                            let d = dense_of(k, bo, dims) as u32;
+                            count[d as usize] += 1;
+                            d
+                        }));
                     }
                 });
+            let chunks = &self.chunks[..self.n_chunks];
             // Cell-major, block-minor exclusive prefix: each block's count becomes its cursor,
             // and `prefix[k]` the end of cell k.
             self.prefix.clear();
@@ -861,10 +868,10 @@ impl Grid {
                         let first = (b * per_block + j) * CHUNK;
                         for l in 0..ch.start.len() - 1 {
                             let range = ch.start[l] as usize..ch.start[l + 1] as usize;
-                            for (&k, &earlier) in
-                                ch.keys[range.clone()].iter().zip(&ch.earlier[range])
+                            for (&d, &earlier) in
+                                ch.dense[range.clone()].iter().zip(&ch.earlier[range])
                             {
-                                let c = &mut cursor[dense_of(k, bo, dims) as usize];
+                                let c = &mut cursor[d as usize];
                                 out_items[*c as usize].store((first + l) as u32, Relaxed);
                                 out_earlier[*c as usize].store(earlier, Relaxed);
                                 *c += 1;
@@ -872,11 +879,11 @@ impl Grid {
                         }
                     }
                 });
-            self.sorted_items
+            self.sorted_items[..entries]
                 .par_chunks_mut(1 << 14)
-                .zip(self.entry_earlier.par_chunks_mut(1 << 14))
-                .zip(out_items.par_chunks(1 << 14))
-                .zip(out_earlier.par_chunks(1 << 14))
+                .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
+                .zip(out_items[..entries].par_chunks(1 << 14))
+                .zip(out_earlier[..entries].par_chunks(1 << 14))
                 .for_each(|(((items, earlier), from_items), from_earlier)| {
                     for (o, f) in items.iter_mut().zip(from_items) {
                         *o = f.load(Relaxed);
@@ -902,6 +909,7 @@ impl Grid {
                 }
             }
         } else {
+            let chunks = &self.chunks[..self.n_chunks];
             self.prefix.clear();
             self.tmp.clear();
             for (ci, ch) in chunks.iter().enumerate() {
