@@ -643,8 +643,9 @@ impl Grid {
                         break;
                     }
                     let first = keys.len();
-                    // Fast path for a point or a segment: the walk fills a small local array,
-                    // whose coordinates then give the earlier-cell bit sets directly.
+                    // Fast path for a short segment or a point: each cell of its small cell
+                    // range is tested, into a local array whose coordinates then give the
+                    // earlier-cell bit sets directly.
                     let mut res = Ok(0);
                     let mut fast = false;
                     let extent = [0, 1, 2].map(|k| ch[k] - cl[k] + 1);

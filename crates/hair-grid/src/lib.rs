@@ -19,8 +19,11 @@
 //!
 //! Cells are `h` = the mean segment length by default ([`GridConfig::cell_size`] overrides it).
 //! A rebuild validates and covers every section in parallel chunks of 1024 (each cover is the
-//! exact set of cells its core reaches, grown by its radius: a slab walk, not the bounding box),
-//! sorts the (cell, section) entries by a parallel counting sort over the box of the covers, then
+//! exact set of cells its core reaches, grown by its radius, not the bounding box: a slab walk,
+//! or for a segment whose cell range is small, at most 4 x 4 x 4 and 32 cells, a test of each
+//! cell of that range, which gives the same cells), sorts the (cell, section) entries by a
+//! parallel counting sort over the box of the covers (each entry's index in that box is
+//! computed once, then reused by the scatter and the copy below), then
 //! copies the data the pair search needs into its own order, sections sorted by their first cell
 //! (a second counting sort). That copy is what makes the search fast: walking the cells in key
 //! order then reads a sliding window of nearby memory instead of one cache miss per entry, as the
