@@ -1,14 +1,14 @@
 //! The sparse uniform grid of hair sections (Ward & Lin 2003 §5.3; salon paper §4.3.1), rebuilt
 //! every step by a parallel counting sort of (cell, section) entries.
 
+use std::sync::atomic::AtomicU64;
 use std::sync::atomic::Ordering::Relaxed;
-use std::sync::atomic::{AtomicU32, AtomicU64};
 
 use rayon::prelude::*;
 
 use crate::cell_key::{CellKey, LATTICE_HALF};
 use crate::cover::{self, CellBox};
-use crate::pairs::{PBox, Packed, line_of};
+use crate::pairs::{Line, PBox, Packed, line_of};
 use crate::{GridError, Point, Real, Ssv};
 
 /// Sections per cover chunk: the unit of parallel work when inserting, fixed so that the output
@@ -63,13 +63,16 @@ impl Default for GridConfig {
     }
 }
 
-/// Per-section record: the bounding box grown by half the margin and the rounding slack, and the
-/// ids.
+/// Per-section record: the bounding box grown by half the margin and the rounding slack, the
+/// ids, and the core for the exact pair test. One cache line, so that copying the records into
+/// the pair search's order reads one line per section.
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
 pub(crate) struct Rec {
     pub aabb: [Real; 6],
     pub skeleton: u32,
     pub segment: u32,
+    pub line: Line,
 }
 
 /// One chunk of sections: their covers, item-major (the packed cell keys of each section,
@@ -116,9 +119,9 @@ pub struct Grid {
     /// Dense path: per block of chunks, its entry count per box cell, then its cursor.
     block_counts: Vec<Vec<u32>>,
     /// Dense path: the scatter's output before it is copied to `sorted_items` and
-    /// `entry_earlier`.
-    scatter_items: Vec<AtomicU32>,
-    scatter_earlier: Vec<AtomicU64>,
+    /// `entry_earlier`: per entry, its section then its earlier cells, side by side so that a
+    /// write touches one cache line.
+    scatter: Vec<AtomicU64>,
     /// Dense path: index among the non-empty cells of each box cell.
     dense_cell: Vec<u32>,
     /// Section data in the pair search's order.
@@ -290,8 +293,7 @@ impl Grid {
             dense: false,
             prefix: Vec::new(),
             block_counts: Vec::new(),
-            scatter_items: Vec::new(),
-            scatter_earlier: Vec::new(),
+            scatter: Vec::new(),
             dense_cell: Vec::new(),
             packed: Packed::default(),
             entry_earlier: Vec::new(),
@@ -621,6 +623,7 @@ impl Grid {
                         ],
                         skeleton: s.skeleton,
                         segment: s.segment,
+                        line: line_of(&s.shape),
                     };
                     let (v, n, r) = core_in_cells(&s.shape, inv, grow);
                     let (cl, ch) = cell_range(&v[..n], r);
@@ -748,7 +751,7 @@ impl Grid {
         // Gather the data in the new order.
         pk.boxes.resize(n, PBox::default());
         pk.lines.resize(n, [0.0; 8]);
-        let (recs, shapes, order) = (&self.recs, &self.shapes, &pk.order);
+        let (recs, order) = (&self.recs, &pk.order);
         pk.boxes
             .par_chunks_mut(CHUNK)
             .zip(pk.lines.par_chunks_mut(CHUNK))
@@ -762,7 +765,7 @@ impl Grid {
                         skeleton: r.skeleton,
                         segment: r.segment,
                     };
-                    lines[k] = line_of(&shapes[i as usize]);
+                    lines[k] = r.line;
                 }
             });
         // Renumber the entries.
@@ -853,13 +856,10 @@ impl Grid {
             }
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
             // stores, plain moves on common targets), then one sequential copy.
-            if self.scatter_items.len() < entries {
-                self.scatter_items
-                    .resize_with(entries, || AtomicU32::new(0));
-                self.scatter_earlier
-                    .resize_with(entries, || AtomicU64::new(0));
+            if self.scatter.len() < 2 * entries {
+                self.scatter.resize_with(2 * entries, || AtomicU64::new(0));
             }
-            let (out_items, out_earlier) = (&self.scatter_items, &self.scatter_earlier);
+            let out = &self.scatter;
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks(per_block))
@@ -873,8 +873,9 @@ impl Grid {
                                 ch.dense[range.clone()].iter().zip(&ch.earlier[range])
                             {
                                 let c = &mut cursor[d as usize];
-                                out_items[*c as usize].store((first + l) as u32, Relaxed);
-                                out_earlier[*c as usize].store(earlier, Relaxed);
+                                let at = 2 * *c as usize;
+                                out[at].store((first + l) as u64, Relaxed);
+                                out[at + 1].store(earlier, Relaxed);
                                 *c += 1;
                             }
                         }
@@ -883,14 +884,15 @@ impl Grid {
             self.sorted_items[..entries]
                 .par_chunks_mut(1 << 14)
                 .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
-                .zip(out_items[..entries].par_chunks(1 << 14))
-                .zip(out_earlier[..entries].par_chunks(1 << 14))
-                .for_each(|(((items, earlier), from_items), from_earlier)| {
-                    for (o, f) in items.iter_mut().zip(from_items) {
-                        *o = f.load(Relaxed);
-                    }
-                    for (o, f) in earlier.iter_mut().zip(from_earlier) {
-                        *o = f.load(Relaxed);
+                .zip(out[..2 * entries].par_chunks(2 << 14))
+                .for_each(|((items, earlier), from)| {
+                    for ((item, earlier), f) in items
+                        .iter_mut()
+                        .zip(earlier.iter_mut())
+                        .zip(from.chunks_exact(2))
+                    {
+                        *item = f[0].load(Relaxed) as u32;
+                        *earlier = f[1].load(Relaxed);
                     }
                 });
             // Non-empty cells.
