@@ -112,6 +112,76 @@ pub(crate) fn segment(
     Ok(count)
 }
 
+/// The cells of the range `lo..=hi` (at most `out.len()` of them) that meet the segment
+/// `a`-`b` grown by a cube of half-side `r`, in increasing `(x, y, z)` order; returns their
+/// number. A cell is kept when the parameter intervals of its three slabs, grown by `r`,
+/// intersect within `[0, 1]`: the same cells as [`segment`] up to rounding (both hold every
+/// cell the grown segment meets), for a segment whose cell range is small.
+pub(crate) fn short_segment(
+    a: [f64; 3],
+    b: [f64; 3],
+    r: f64,
+    lo: [i64; 3],
+    hi: [i64; 3],
+    out: &mut [[i64; 3]],
+) -> usize {
+    // Plain comparisons rather than `f64::max`: every value here is finite.
+    #[inline(always)]
+    fn mx(a: f64, b: f64) -> f64 {
+        if a > b { a } else { b }
+    }
+    #[inline(always)]
+    fn mn(a: f64, b: f64) -> f64 {
+        if a < b { a } else { b }
+    }
+    // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
+    // when lower > upper).
+    let mut t0 = [[0.0f64; 4]; 3];
+    let mut t1 = [[-1.0f64; 4]; 3];
+    let n = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1).clamp(0, 4) as usize);
+    for k in 0..3 {
+        let d = b[k] - a[k];
+        if d.abs() > TINY {
+            let inv = 1.0 / d;
+            let base = lo[k] as f64 - a[k];
+            for c in 0..n[k] {
+                let f = base + c as f64;
+                let (s0, s1) = ((f - r) * inv, (f + 1.0 + r) * inv);
+                let (s0, s1) = if s0 > s1 { (s1, s0) } else { (s0, s1) };
+                t0[k][c] = mx(s0, 0.0);
+                t1[k][c] = mn(s1, 1.0);
+            }
+        } else {
+            for c in 0..n[k] {
+                let f = (lo[k] + c as i64) as f64;
+                if a[k] >= f - r && a[k] <= f + 1.0 + r {
+                    t1[k][c] = 1.0;
+                }
+            }
+        }
+    }
+    let mut m = 0;
+    for i in 0..n[0] {
+        let (x0, x1) = (t0[0][i], t1[0][i]);
+        if x0 > x1 {
+            continue;
+        }
+        for j in 0..n[1] {
+            let (y0, y1) = (mx(t0[1][j], x0), mn(t1[1][j], x1));
+            if y0 > y1 {
+                continue;
+            }
+            for k in 0..n[2] {
+                if mx(t0[2][k], y0) <= mn(t1[2][k], y1) && m < out.len() {
+                    out[m] = [lo[0] + i as i64, lo[1] + j as i64, lo[2] + k as i64];
+                    m += 1;
+                }
+            }
+        }
+    }
+    m
+}
+
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -245,6 +315,40 @@ mod tests {
         assert!(cells.len() < 200, "{}", cells.len());
         assert!(cells.windows(2).all(|w| w[0] < w[1]));
         assert!(cells.contains(&[0, 0, 0]) && cells.contains(&[20, 20, 20]));
+    }
+
+    #[test]
+    fn short_segments_cover_the_cells_the_walk_covers() {
+        // Seeded segments about one cell long, some along an axis or a plane of the lattice.
+        let mut z = 7u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut tested = 0;
+        for n in 0..20_000 {
+            let a = [0; 3].map(|_| unit() * 8.0 - 4.0);
+            let mut b = [0; 3].map(|_| 0.0);
+            for k in 0..3 {
+                b[k] = a[k] + unit() * 2.0 - 1.0;
+            }
+            if n % 7 == 0 {
+                b[n % 3] = a[n % 3];
+            }
+            let r = 0.001 + unit() * 0.3;
+            let mut walk = Vec::new();
+            segment(a, b, r, &CellBox::ALL, u64::MAX, &mut |c| walk.push(c)).unwrap();
+            let lo = [0, 1, 2].map(|k| floor_i(a[k].min(b[k]) - r));
+            let hi = [0, 1, 2].map(|k| floor_i(a[k].max(b[k]) + r));
+            if (0..3).any(|k| hi[k] - lo[k] >= 4) {
+                continue;
+            }
+            let mut out = [[0i64; 3]; 64];
+            let m = short_segment(a, b, r, lo, hi, &mut out);
+            assert_eq!(&out[..m], &walk[..], "{a:?} {b:?} {r}");
+            tested += 1;
+        }
+        assert!(tested > 10_000, "{tested}");
     }
 
     #[test]

@@ -1,14 +1,14 @@
 //! The sparse uniform grid of hair sections (Ward & Lin 2003 §5.3; salon paper §4.3.1), rebuilt
 //! every step by a parallel counting sort of (cell, section) entries.
 
+use std::sync::atomic::AtomicU64;
 use std::sync::atomic::Ordering::Relaxed;
-use std::sync::atomic::{AtomicU32, AtomicU64};
 
 use rayon::prelude::*;
 
 use crate::cell_key::{CellKey, LATTICE_HALF};
 use crate::cover::{self, CellBox};
-use crate::pairs::{PBox, Packed, line_of};
+use crate::pairs::{Line, PBox, Packed, line_of};
 use crate::{GridError, Point, Real, Ssv};
 
 /// Sections per cover chunk: the unit of parallel work when inserting, fixed so that the output
@@ -63,13 +63,16 @@ impl Default for GridConfig {
     }
 }
 
-/// Per-section record: the bounding box grown by half the margin and the rounding slack, and the
-/// ids.
+/// Per-section record: the bounding box grown by half the margin and the rounding slack, the
+/// ids, and the core for the exact pair test. One cache line, so that copying the records into
+/// the pair search's order reads one line per section.
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
 pub(crate) struct Rec {
     pub aabb: [Real; 6],
     pub skeleton: u32,
     pub segment: u32,
+    pub line: Line,
 }
 
 /// One chunk of sections: their covers, item-major (the packed cell keys of each section,
@@ -78,6 +81,8 @@ pub(crate) struct Rec {
 #[derive(Debug, Default)]
 pub(crate) struct CoverChunk {
     pub keys: Vec<u64>,
+    /// Dense path: each entry's index in the box of the covers (set by the count pass).
+    pub dense: Vec<u32>,
     pub earlier: Vec<u64>,
     pub start: Vec<u32>,
     scratch: Vec<[i64; 3]>,
@@ -114,9 +119,9 @@ pub struct Grid {
     /// Dense path: per block of chunks, its entry count per box cell, then its cursor.
     block_counts: Vec<Vec<u32>>,
     /// Dense path: the scatter's output before it is copied to `sorted_items` and
-    /// `entry_earlier`.
-    scatter_items: Vec<AtomicU32>,
-    scatter_earlier: Vec<AtomicU64>,
+    /// `entry_earlier`: per entry, its section then its earlier cells, side by side so that a
+    /// write touches one cache line.
+    scatter: Vec<AtomicU64>,
     /// Dense path: index among the non-empty cells of each box cell.
     dense_cell: Vec<u32>,
     /// Section data in the pair search's order.
@@ -242,6 +247,11 @@ pub(crate) fn walk_core(
     }
 }
 
+/// Points and segments whose cell range holds at most this many cells (and at most 4 along each
+/// axis) are covered by testing each cell of the range ([`cover::short_segment`]), into a local
+/// array; the others by the slab walk.
+const SHORT: usize = 32;
+
 const AXES: [char; 3] = ['x', 'y', 'z'];
 const MASK21: u64 = (1 << 21) - 1;
 
@@ -283,8 +293,7 @@ impl Grid {
             dense: false,
             prefix: Vec::new(),
             block_counts: Vec::new(),
-            scatter_items: Vec::new(),
-            scatter_earlier: Vec::new(),
+            scatter: Vec::new(),
             dense_cell: Vec::new(),
             packed: Packed::default(),
             entry_earlier: Vec::new(),
@@ -479,8 +488,6 @@ impl Grid {
         self.entries = 0;
         self.dense = false;
         self.prefix.clear();
-        self.sorted_items.clear();
-        self.entry_earlier.clear();
         self.cell_keys.clear();
         self.cell_start.clear();
         self.cell_start.push(0);
@@ -573,6 +580,7 @@ impl Grid {
             .for_each(|(ci, (((chunk, secs), recs), shapes))| {
                 let CoverChunk {
                     keys,
+                    dense: _,
                     earlier,
                     start,
                     scratch,
@@ -587,6 +595,7 @@ impl Grid {
                 *error = None;
                 *lo = [i64::MAX; 3];
                 *hi = [i64::MIN; 3];
+                let mut buf = [[0i64; 3]; SHORT];
                 for (l, s) in secs.iter().enumerate() {
                     let index = ci * CHUNK + l;
                     if error.is_some() {
@@ -614,6 +623,7 @@ impl Grid {
                         ],
                         skeleton: s.skeleton,
                         segment: s.segment,
+                        line: line_of(&s.shape),
                     };
                     let (v, n, r) = core_in_cells(&s.shape, inv, grow);
                     let (cl, ch) = cell_range(&v[..n], r);
@@ -635,9 +645,33 @@ impl Grid {
                     if error.is_some() {
                         break;
                     }
-                    let res = walk_core(&v[..n], r, &clip, limit, scratch, &mut |c| {
-                        keys.push(pack_i64(c));
-                    });
+                    let first = keys.len();
+                    // Fast path for a short segment or a point: each cell of its small cell
+                    // range is tested, into a local array whose coordinates then give the
+                    // earlier-cell bit sets directly.
+                    let mut res = Ok(0);
+                    let mut fast = false;
+                    let extent = [0, 1, 2].map(|k| ch[k] - cl[k] + 1);
+                    let short = extent.iter().all(|&e| e <= 4)
+                        && extent[0] * extent[1] * extent[2] <= SHORT as i64;
+                    if n <= 2 && short {
+                        let m = cover::short_segment(v[0], v[n - 1], r, cl, ch, &mut buf);
+                        if m as u64 > limit {
+                            res = Err(cover::OverLimit);
+                        } else {
+                            keys.extend(buf[..m].iter().map(|&c| pack_i64(c)));
+                            crate::pairs::earlier_bits(&buf[..m], earlier);
+                            fast = true;
+                        }
+                    }
+                    if !fast && res.is_ok() {
+                        res = walk_core(&v[..n], r, &clip, limit, scratch, &mut |c| {
+                            keys.push(pack_i64(c));
+                        });
+                        if res.is_ok() {
+                            crate::pairs::earlier_cells(&keys[first..], earlier);
+                        }
+                    }
                     if res.is_err() {
                         *error = Some(GridError::TooManyCells {
                             what: "section",
@@ -647,8 +681,6 @@ impl Grid {
                         });
                         break;
                     }
-                    let first = *start.last().unwrap_or(&0) as usize;
-                    crate::pairs::earlier_cells(&keys[first..], earlier);
                     start.push(keys.len() as u32);
                 }
             });
@@ -682,8 +714,6 @@ impl Grid {
         let pk = &mut self.packed;
         // Cell index of each section's first cell (`n_cells` for an empty cover).
         pk.first.resize(n.max(pk.first.len()), 0);
-        let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
-        let dims = self.dims;
         let (dense, dense_cell, cell_keys) = (self.dense, &self.dense_cell, &self.cell_keys);
         pk.first[..n]
             .par_chunks_mut(CHUNK)
@@ -694,7 +724,7 @@ impl Grid {
                     *f = if s == e {
                         n_cells as u32
                     } else if dense {
-                        dense_cell[dense_of(ch.keys[s], bo, dims) as usize]
+                        dense_cell[ch.dense[s] as usize]
                     } else {
                         cell_keys
                             .binary_search(&ch.keys[s])
@@ -721,7 +751,7 @@ impl Grid {
         // Gather the data in the new order.
         pk.boxes.resize(n, PBox::default());
         pk.lines.resize(n, [0.0; 8]);
-        let (recs, shapes, order) = (&self.recs, &self.shapes, &pk.order);
+        let (recs, order) = (&self.recs, &pk.order);
         pk.boxes
             .par_chunks_mut(CHUNK)
             .zip(pk.lines.par_chunks_mut(CHUNK))
@@ -735,15 +765,18 @@ impl Grid {
                         skeleton: r.skeleton,
                         segment: r.segment,
                     };
-                    lines[k] = line_of(&shapes[i as usize]);
+                    lines[k] = r.line;
                 }
             });
         // Renumber the entries.
         let rank = &pk.rank;
-        pk.items.resize(self.sorted_items.len(), 0);
-        pk.items
+        let entries = self.entries;
+        if pk.items.len() < entries {
+            pk.items.resize(entries, 0);
+        }
+        pk.items[..entries]
             .par_chunks_mut(1 << 14)
-            .zip(self.sorted_items.par_chunks(1 << 14))
+            .zip(self.sorted_items[..entries].par_chunks(1 << 14))
             .for_each(|(out, inp)| {
                 for (o, &i) in out.iter_mut().zip(inp) {
                     *o = rank[i as usize];
@@ -763,17 +796,18 @@ impl Grid {
         self.dense = box_cells <= (4 * entries as u64).max(1 << 16)
             && box_cells < u64::from(u32::MAX)
             && entries < u32::MAX as usize;
-        let chunks = &self.chunks[..self.n_chunks];
-        self.sorted_items.clear();
-        self.sorted_items.resize(entries, 0);
-        self.entry_earlier.clear();
-        self.entry_earlier.resize(entries, 0);
+        // Only grown: every entry below `entries` is written below.
+        if self.sorted_items.len() < entries {
+            self.sorted_items.resize(entries, 0);
+            self.entry_earlier.resize(entries, 0);
+        }
         self.cell_keys.clear();
         self.cell_start.clear();
         self.cell_start.push(0);
         let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
         let dims = self.dims;
         if self.dense {
+            let chunks = &mut self.chunks[..self.n_chunks];
             let nb = box_cells as usize;
             // Blocks of chunks, one per thread: each counts and places only its own entries.
             // Within a cell the entries of block 0 come first, then block 1's, and so on, so
@@ -793,16 +827,20 @@ impl Grid {
             let counts = &mut self.block_counts[..blocks];
             counts
                 .par_iter_mut()
-                .zip(chunks.par_chunks(per_block))
+                .zip(chunks.par_chunks_mut(per_block))
                 .for_each(|(count, chs)| {
                     count.clear();
                     count.resize(nb, 0);
                     for ch in chs {
-                        for &k in &ch.keys {
-                            count[dense_of(k, bo, dims) as usize] += 1;
-                        }
+                        ch.dense.clear();
+                        ch.dense.extend(ch.keys.iter().map(|&k| {
+                            let d = dense_of(k, bo, dims) as u32;
+                            count[d as usize] += 1;
+                            d
+                        }));
                     }
                 });
+            let chunks = &self.chunks[..self.n_chunks];
             // Cell-major, block-minor exclusive prefix: each block's count becomes its cursor,
             // and `prefix[k]` the end of cell k.
             self.prefix.clear();
@@ -818,13 +856,10 @@ impl Grid {
             }
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
             // stores, plain moves on common targets), then one sequential copy.
-            if self.scatter_items.len() < entries {
-                self.scatter_items
-                    .resize_with(entries, || AtomicU32::new(0));
-                self.scatter_earlier
-                    .resize_with(entries, || AtomicU64::new(0));
+            if self.scatter.len() < 2 * entries {
+                self.scatter.resize_with(2 * entries, || AtomicU64::new(0));
             }
-            let (out_items, out_earlier) = (&self.scatter_items, &self.scatter_earlier);
+            let out = &self.scatter;
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks(per_block))
@@ -834,28 +869,30 @@ impl Grid {
                         let first = (b * per_block + j) * CHUNK;
                         for l in 0..ch.start.len() - 1 {
                             let range = ch.start[l] as usize..ch.start[l + 1] as usize;
-                            for (&k, &earlier) in
-                                ch.keys[range.clone()].iter().zip(&ch.earlier[range])
+                            for (&d, &earlier) in
+                                ch.dense[range.clone()].iter().zip(&ch.earlier[range])
                             {
-                                let c = &mut cursor[dense_of(k, bo, dims) as usize];
-                                out_items[*c as usize].store((first + l) as u32, Relaxed);
-                                out_earlier[*c as usize].store(earlier, Relaxed);
+                                let c = &mut cursor[d as usize];
+                                let at = 2 * *c as usize;
+                                out[at].store((first + l) as u64, Relaxed);
+                                out[at + 1].store(earlier, Relaxed);
                                 *c += 1;
                             }
                         }
                     }
                 });
-            self.sorted_items
+            self.sorted_items[..entries]
                 .par_chunks_mut(1 << 14)
-                .zip(self.entry_earlier.par_chunks_mut(1 << 14))
-                .zip(out_items.par_chunks(1 << 14))
-                .zip(out_earlier.par_chunks(1 << 14))
-                .for_each(|(((items, earlier), from_items), from_earlier)| {
-                    for (o, f) in items.iter_mut().zip(from_items) {
-                        *o = f.load(Relaxed);
-                    }
-                    for (o, f) in earlier.iter_mut().zip(from_earlier) {
-                        *o = f.load(Relaxed);
+                .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
+                .zip(out[..2 * entries].par_chunks(2 << 14))
+                .for_each(|((items, earlier), from)| {
+                    for ((item, earlier), f) in items
+                        .iter_mut()
+                        .zip(earlier.iter_mut())
+                        .zip(from.chunks_exact(2))
+                    {
+                        *item = f[0].load(Relaxed) as u32;
+                        *earlier = f[1].load(Relaxed);
                     }
                 });
             // Non-empty cells.
@@ -875,6 +912,7 @@ impl Grid {
                 }
             }
         } else {
+            let chunks = &self.chunks[..self.n_chunks];
             self.prefix.clear();
             self.tmp.clear();
             for (ci, ch) in chunks.iter().enumerate() {

@@ -481,6 +481,26 @@ pub(crate) fn earlier_cells(keys: &[u64], out: &mut Vec<u64>) {
     }
 }
 
+/// [`earlier_cells`] of a cover given by its cell coordinates (ascending), for covers of at
+/// most [`MAX_DESCRIBED`] cells.
+pub(crate) fn earlier_bits(cells: &[[i64; 3]], out: &mut Vec<u64>) {
+    let cells = &cells[..cells.len().min(MAX_DESCRIBED)];
+    out.extend(cells.iter().enumerate().map(|(k, c)| {
+        let mut b = 0u64;
+        for p in cells[..k].iter().rev() {
+            let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            if d[0] < -2 {
+                b |= OUTSIDE;
+                break;
+            }
+            let far = (d[1] + 2) as u64 > 4 || (d[2] + 2) as u64 > 4;
+            let bit = 1u64 << (((d[0] + 2) * 25 + (d[1] + 2) * 5 + (d[2] + 2)) & 63);
+            b |= if far { OUTSIDE } else { bit };
+        }
+        b
+    }));
+}
+
 /// What the bit sets of two sections in a cell say about reporting their pair there.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Owner {
@@ -532,6 +552,26 @@ mod tests {
         out.clear();
         earlier_cells(&keys(&[[0, 0, 0], [3, 0, 0]]), &mut out);
         assert_eq!(out, vec![0, OUTSIDE]);
+    }
+
+    #[test]
+    fn earlier_bits_match_earlier_cells() {
+        let cells: Vec<[i64; 3]> = vec![
+            [-3, 0, 0],
+            [-1, 0, 0],
+            [0, -3, 1],
+            [0, 0, 0],
+            [0, 0, 1],
+            [0, 2, -2],
+            [1, 0, 0],
+            [1, 3, 0],
+            [2, 0, 2],
+        ];
+        let k: Vec<[i32; 3]> = cells.iter().map(|c| c.map(|v| v as i32)).collect();
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        earlier_cells(&keys(&k), &mut a);
+        earlier_bits(&cells, &mut b);
+        assert_eq!(a, b);
     }
 
     #[test]
