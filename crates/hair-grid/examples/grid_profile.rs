@@ -2,12 +2,14 @@
 //! radius 0.5 mm, on a head-sized shell, seed 1), rebuilt and searched for overlapping pairs a
 //! given number of times after one warm-up.
 //!
-//! `cargo run --release -p hair-grid --example grid_profile -- [build|pairs|both] [repeat]`
-//! prints the fastest and median times and hashes of the cells, the candidate pairs and the
+//! `cargo run --release -p hair-grid --example grid_profile -- [build|pairs|candidates|both]
+//! [repeat] [cell size]` prints the fastest and median times and hashes of the cells, the candidate pairs and the
 //! overlapping pairs (in order), so that a change can be checked to leave them identical.
 //! Instruction counts of one rebuild (or one pair search): run it under
 //! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind` with `build 1` and `build 3` (or `pairs`);
-//! half the difference of the two totals is the cost of one.
+//! half the difference of the two totals is the cost of one. `candidates` times the pair search
+//! without the exact test ([`Grid::candidate_pairs`]), so that the exact test's share is the
+//! difference.
 use std::time::Instant;
 
 use hair_grid::{Grid, GridConfig, PairSet, Section};
@@ -88,18 +90,28 @@ fn main() {
     let mode = args.get(1).map(String::as_str).unwrap_or("both");
     let reps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
     let secs = head_scene(300_000, 30, 1);
-    let mut grid = Grid::new(GridConfig::default());
+    // Optional third argument: the cell size in metres (default: the mean segment length).
+    let cell_size: Option<f32> = args.get(3).and_then(|s| s.parse().ok());
+    let mut grid = Grid::new(GridConfig {
+        cell_size,
+        ..GridConfig::default()
+    });
     let mut pairs = PairSet::new();
     grid.rebuild(&secs).unwrap();
     grid.overlapping_pairs(&mut pairs);
     let (mut tb, mut tp) = (Vec::new(), Vec::new());
     for _ in 0..reps {
-        if mode != "pairs" {
+        if mode == "build" || mode == "both" {
             let t = Instant::now();
             grid.rebuild(&secs).unwrap();
             tb.push(t.elapsed().as_secs_f64() * 1e3);
         }
-        if mode != "build" {
+        if mode == "candidates" {
+            let t = Instant::now();
+            grid.candidate_pairs(&mut pairs);
+            tp.push(t.elapsed().as_secs_f64() * 1e3);
+            grid.overlapping_pairs(&mut pairs);
+        } else if mode != "build" {
             let t = Instant::now();
             grid.overlapping_pairs(&mut pairs);
             tp.push(t.elapsed().as_secs_f64() * 1e3);

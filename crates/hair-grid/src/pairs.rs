@@ -23,6 +23,7 @@ const CELLS_PER_TASK: usize = 256;
 const LANES: usize = 8;
 
 /// Multiplier that moves the low bit of each of the eight bytes of a word into its top byte.
+#[cfg(any(test, not(target_arch = "x86_64")))]
 const GATHER_BYTES: u64 = 0x0102_0408_1020_4080;
 
 /// Candidate pairs buffered before the exact test.
@@ -63,17 +64,50 @@ pub(crate) struct Packed {
 #[derive(Debug, Default)]
 struct PairChunk {
     pairs: Vec<[u32; 2]>,
-    /// The boxes of the current cell by column: min x, y, z, max x, y, z.
-    cols: [Vec<f32>; 6],
-    /// Skeleton and segment of each section of the current cell.
-    ids: Vec<[u32; 2]>,
-    /// One row of box-test results, a byte per box.
-    hits: Vec<u8>,
+    /// The sections of the current cell by column.
+    cols: CellCols,
     /// Candidates (internal indices) waiting for the exact test: the first `n_cand`. The rest is
     /// room written ahead, so that appending needs no branch (half of the box hits are dropped,
     /// unpredictably).
     cand: Vec<[u32; 2]>,
     n_cand: usize,
+}
+
+/// The sections of one cell by column, padded past the cell's `m` entries with [`PAD`] NaN boxes
+/// (which fail every comparison) so that the row tests need no remainder.
+#[derive(Debug, Default)]
+struct CellCols {
+    /// Bounding boxes: min x, y, z, max x, y, z.
+    boxes: [Vec<f32>; 6],
+    /// Skeleton and segment.
+    ids: Vec<[u32; 2]>,
+}
+
+/// The box columns of one cell, each `len` long (the entries and their padding), sliced once per
+/// cell so that the rows need one bounds check instead of twelve.
+#[derive(Clone, Copy, Debug)]
+struct CellView<'a> {
+    cols: [&'a [f32]; 6],
+    len: usize,
+}
+
+impl<'a> CellView<'a> {
+    fn new(cols: &'a CellCols, len: usize) -> Self {
+        Self {
+            cols: [0, 1, 2, 3, 4, 5].map(|k| &cols.boxes[k][..len]),
+            len,
+        }
+    }
+}
+
+/// Padding of the cell columns: a full group of eight lanes past the last entry.
+const PAD: usize = 8;
+
+/// The section `a` a row tests against the later ones.
+#[derive(Clone, Copy, Debug)]
+struct RowHead {
+    lo: [f32; 3],
+    hi: [f32; 3],
 }
 
 /// A reusable set of section pairs `[i, j]` with `i < j`, filled by [`Grid::candidate_pairs`] or
@@ -182,6 +216,12 @@ impl Grid {
     }
 
     fn enumerate_pairs(&self, out: &mut PairSet, exact: bool) {
+        self.enumerate_pairs_with(out, exact, has_avx2());
+    }
+
+    /// The pair search, with the AVX2 kernels or the baseline ones (`avx2` must be true only
+    /// when [`has_avx2`]).
+    fn enumerate_pairs_with(&self, out: &mut PairSet, exact: bool, avx2: bool) {
         out.clear();
         let n_cells = self.cell_keys.len();
         let tasks = n_cells.div_ceil(CELLS_PER_TASK);
@@ -189,25 +229,60 @@ impl Grid {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
+        let avx2 = avx2 && has_avx2();
         out.chunks[..tasks]
             .par_iter_mut()
             .enumerate()
             .for_each(|(t, chunk)| {
-                chunk.pairs.clear();
-                chunk.n_cand = 0;
                 let c0 = t * CELLS_PER_TASK;
-                let c1 = (c0 + CELLS_PER_TASK).min(n_cells);
-                for c in c0..c1 {
-                    self.cell_pairs(c, chunk, exact);
+                let cells = c0..(c0 + CELLS_PER_TASK).min(n_cells);
+                if avx2 {
+                    self.task_avx2(cells, chunk, exact);
+                } else {
+                    self.task::<false>(cells, chunk, exact);
                 }
-                self.finish(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
-                chunk.n_cand = 0;
             });
     }
 
+    /// One task of the pair search compiled for AVX2: the row tests eight boxes per instruction
+    /// and the exact test runs eight lanes per instruction. (The results are the same: Rust
+    /// never fuses or reorders floating-point operations, whatever the instruction set.)
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, exact: bool) {
+        #[target_feature(enable = "avx2")]
+        fn run(grid: &Grid, cells: std::ops::Range<usize>, chunk: &mut PairChunk, exact: bool) {
+            grid.task::<true>(cells, chunk, exact);
+        }
+        // SAFETY: called only when `has_avx2` found AVX2 on this processor.
+        unsafe { run(self, cells, chunk, exact) }
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, exact: bool) {
+        self.task::<false>(cells, chunk, exact);
+    }
+
+    /// The pairs first reported by the cells of one task, into `chunk.pairs`.
+    #[inline(always)]
+    fn task<const AVX: bool>(
+        &self,
+        cells: std::ops::Range<usize>,
+        chunk: &mut PairChunk,
+        exact: bool,
+    ) {
+        chunk.pairs.clear();
+        chunk.n_cand = 0;
+        for c in cells {
+            self.cell_pairs::<AVX>(c, chunk, exact);
+        }
+        self.finish(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
+        chunk.n_cand = 0;
+    }
+
     /// The candidates first reported by cell `c`, into `chunk.cand` (flushed as it fills).
-    #[inline]
-    fn cell_pairs(&self, c: usize, chunk: &mut PairChunk, exact: bool) {
+    #[inline(always)]
+    fn cell_pairs<const AVX: bool>(&self, c: usize, chunk: &mut PairChunk, exact: bool) {
         let pk = &self.packed;
         let range = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
         let ents = &pk.items[range.clone()];
@@ -220,25 +295,23 @@ impl Grid {
         let PairChunk {
             pairs,
             cols,
-            ids,
-            hits,
             cand,
             n_cand,
         } = chunk;
-        // Gather the boxes into columns, padded with NaN (which fails every comparison) so that
-        // the row test needs no remainder.
-        if hits.len() < m + 8 {
-            hits.resize(m + 8, 0);
-            for col in cols.iter_mut() {
-                col.resize(m + 8, f32::NAN);
+        // Gather the cell's sections into columns.
+        if cols.ids.len() < m + PAD {
+            for col in cols.boxes.iter_mut() {
+                col.resize(m + PAD, f32::NAN);
             }
-            ids.resize(m + 8, [0; 2]);
+            cols.ids.resize(m + PAD, [0; 2]);
         }
-        for col in cols.iter_mut() {
-            col[m..m + 8].fill(f32::NAN);
+        for col in cols.boxes.iter_mut() {
+            col[m..m + PAD].fill(f32::NAN);
         }
         {
-            let [lx, ly, lz, hx, hy, hz] = &mut *cols;
+            // Slices, not vectors: their pointers stay in registers across the stores.
+            let [lx, ly, lz, hx, hy, hz] = cols.boxes.each_mut().map(|c| &mut c[..m]);
+            let ids = &mut cols.ids[..m];
             for (e, &it) in ents.iter().enumerate() {
                 let b = &pk.boxes[it as usize];
                 lx[e] = b.lo[0];
@@ -250,72 +323,61 @@ impl Grid {
                 ids[e] = [b.skeleton, b.segment];
             }
         }
-        let [lx, ly, lz, hx, hy, hz] = &*cols;
+        let cols = &*cols;
+        let key = self.cell_keys[c];
+        // The count of buffered candidates lives in a register for the whole cell (through the
+        // `PairChunk` it would be stored and reloaded at every hit).
+        let mut nc = *n_cand;
+        let ids = &cols.ids[..m];
+        let view = CellView::new(cols, m + PAD);
         for a in 0..m - 1 {
-            let lo = [lx[a], ly[a], lz[a]];
-            let hi = [hx[a], hy[a], hz[a]];
+            let bx = &view.cols;
+            let head = RowHead {
+                lo: [bx[0][a], bx[1][a], bx[2][a]],
+                hi: [bx[3][a], bx[4][a], bx[5][a]],
+            };
             let [skel_a, seg_a] = ids[a];
-            let earlier_a = earlier[a];
-            if cand.len() < *n_cand + m {
-                cand.resize(*n_cand + m, [0; 2]);
+            let (earlier_a, ent_a) = (earlier[a], ents[a]);
+            if cand.len() < nc + m {
+                cand.resize(nc + m, [0; 2]);
             }
-            // One row of box tests, padded to a multiple of eight lanes with the NaN boxes so
-            // that it compiles to packed compares with no remainder: a byte per box. (Moving the
-            // neighbour and owner tests into this loop removes branch misses but costs more
-            // instructions than it saves.)
+            // This row's candidates: at most one per box after `a`.
+            let row = &mut cand[nc..nc + m];
+            let mut k = 0;
             let b0 = a + 1;
-            let n = (m - b0 + 7) & !7;
-            let (x0, y0, z0) = (&lx[b0..b0 + n], &ly[b0..b0 + n], &lz[b0..b0 + n]);
-            let (x1, y1, z1) = (&hx[b0..b0 + n], &hy[b0..b0 + n], &hz[b0..b0 + n]);
-            let row = &mut hits[..n];
-            for k in 0..n {
-                row[k] = u8::from(
-                    (x0[k] <= hi[0])
-                        & (x1[k] >= lo[0])
-                        & (y0[k] <= hi[1])
-                        & (y1[k] >= lo[1])
-                        & (z0[k] <= hi[2])
-                        & (z1[k] >= lo[2]),
-                );
-            }
-            // The bytes to bits, 64 boxes at a time, branch-free (a branch per group of boxes
-            // would be mispredicted about as often as there are hits).
-            for (g, group) in row.chunks(64).enumerate() {
-                let mut bits = 0u64;
-                for (w, word) in group.chunks_exact(8).enumerate() {
-                    let word = u64::from_le_bytes([
-                        word[0], word[1], word[2], word[3], word[4], word[5], word[6], word[7],
-                    ]);
-                    // Each byte is 0 or 1: the product gathers the eight low bits into the top
-                    // byte.
-                    bits |= (word.wrapping_mul(GATHER_BYTES) >> 56) << (8 * w);
-                }
+            let n = m - b0;
+            for g in 0..n.div_ceil(64) {
+                let start = b0 + 64 * g;
+                let mut bits = row_hits::<AVX>(&view, &head, start, (n - 64 * g).min(64));
+                // The neighbour and owner tests hit by hit, branch-free but for the rare
+                // undecided owner. (Running them lane-wise on every group of eight with a box
+                // hit took more instructions than it saved.)
                 while bits != 0 {
-                    let b = b0 + 64 * g + bits.trailing_zeros() as usize;
+                    let b = start + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
                     let [skel_b, seg_b] = ids[b];
-                    let neighbours = (skel_a == skel_b) & (seg_a.abs_diff(seg_b) <= skip);
-                    let verdict = owner(earlier_a, earlier[b]);
-                    let pair = [ents[a], ents[b]];
-                    if !neighbours & (verdict == Owner::Unsure) {
-                        if self.first_shared(self.cell_keys[c], pair[0], pair[1]) {
-                            cand[*n_cand] = pair;
-                            *n_cand += 1;
-                        }
+                    let (here, unsure) = owner(earlier_a, earlier[b]);
+                    let apart = (skel_a != skel_b) | (seg_a.abs_diff(seg_b) > skip);
+                    // Written ahead, kept by advancing `k`: no branch but for the rare `unsure`.
+                    row[k] = [ent_a, ents[b]];
+                    if apart & unsure {
+                        k += usize::from(self.first_shared(key, ent_a, ents[b]));
                         continue;
                     }
-                    cand[*n_cand] = pair;
-                    *n_cand += usize::from(!neighbours & (verdict == Owner::Yes));
+                    k += usize::from(apart & here);
                 }
             }
-            if *n_cand >= BATCH {
-                self.finish(&cand[..*n_cand], pairs, exact);
-                *n_cand = 0;
+            nc += k;
+            if nc >= BATCH {
+                self.finish(&cand[..nc], pairs, exact);
+                nc = 0;
             }
         }
+        *n_cand = nc;
     }
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
+    #[inline(always)]
     fn finish(&self, cand: &[[u32; 2]], pairs: &mut Vec<[u32; 2]>, exact: bool) {
         let pk = &self.packed;
         let order = &pk.order;
@@ -352,7 +414,7 @@ impl Grid {
     /// packed lines. It agrees with the scalar kernel up to rounding, so a pair within a rounding
     /// band of the margin (and any pair that is not two LSS) is decided by [`Ssv::distance`]
     /// itself: the result is exactly `distance <= margin`.
-    #[inline]
+    #[inline(always)]
     fn exact_lanes(&self, block: &[[u32; 2]], margin: Real) -> u32 {
         let lines = &self.packed.lines;
         let mut p = [[0.0f32; LANES]; 8];
@@ -434,6 +496,161 @@ impl Grid {
     }
 }
 
+/// Box tests of one row (`len <= 64` boxes from `start`): AVX2 inside [`Grid::task_avx2`], else
+/// SSE2 on x86-64 or portable code.
+#[inline(always)]
+#[allow(unsafe_code)]
+fn row_hits<const AVX2: bool>(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `AVX2` is true only in code reached from `Grid::task_avx2`, which runs only
+        // when `has_avx2` found AVX2 on this processor.
+        return unsafe { row_hits_avx2(view, head, start, len) };
+    }
+    row_hits_base(view, head, start, len)
+}
+
+/// Box tests of one row: bit `k` is set when the box at `start + k` (`k < len <= 64`) overlaps
+/// the head's box.
+///
+/// On x86-64, four boxes per SSE2 compare and `movemask` (SSE2 is part of the base instruction
+/// set): the portable form compiles to byte-wise compares whose conversion to bits took most of
+/// the pair search's instructions.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[allow(unsafe_code)]
+fn row_hits_base(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
+    #[target_feature(enable = "sse2")]
+    fn sse2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
+        use std::arch::x86_64::{
+            __m128, _mm_and_ps, _mm_cmple_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_set1_ps,
+        };
+        let [lx, ly, lz, hx, hy, hz] = view.cols;
+        let end = start + len.div_ceil(4) * 4;
+        let (lx, ly, lz) = (&lx[start..end], &ly[start..end], &lz[start..end]);
+        let (hx, hy, hz) = (&hx[start..end], &hy[start..end], &hz[start..end]);
+        let (lo, hi) = (head.lo, head.hi);
+        let (lo_x, lo_y, lo_z) = (_mm_set1_ps(lo[0]), _mm_set1_ps(lo[1]), _mm_set1_ps(lo[2]));
+        let (hi_x, hi_y, hi_z) = (_mm_set1_ps(hi[0]), _mm_set1_ps(hi[1]), _mm_set1_ps(hi[2]));
+        // Four consecutive floats of a column, quad `q` of the row.
+        let quad = |c: &[f32], q: usize| -> __m128 {
+            debug_assert!(4 * q + 4 <= c.len());
+            // SAFETY: `q < c.len() / 4` at every call below, so the four floats are inside `c`.
+            unsafe { _mm_loadu_ps(c.as_ptr().add(4 * q)) }
+        };
+        let mut bits = 0u64;
+        for q in 0..lx.len() / 4 {
+            let x = _mm_and_ps(
+                _mm_cmple_ps(quad(lx, q), hi_x),
+                _mm_cmple_ps(lo_x, quad(hx, q)),
+            );
+            let y = _mm_and_ps(
+                _mm_cmple_ps(quad(ly, q), hi_y),
+                _mm_cmple_ps(lo_y, quad(hy, q)),
+            );
+            let z = _mm_and_ps(
+                _mm_cmple_ps(quad(lz, q), hi_z),
+                _mm_cmple_ps(lo_z, quad(hz, q)),
+            );
+            let hit = _mm_movemask_ps(_mm_and_ps(_mm_and_ps(x, y), z)) as u64;
+            bits |= hit << (4 * q);
+        }
+        bits
+    }
+    // SAFETY: SSE2 is part of the x86-64 baseline, so every x86-64 processor has it (the
+    // compiler enables it for this target by default).
+    unsafe { sse2(view, head, start, len) }
+}
+
+/// Box tests of one row (see the x86-64 version): eight boxes at a time as bytes, gathered into
+/// bits.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn row_hits_base(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
+    row_hits_portable(view, head, start, len)
+}
+
+/// The box tests of one row in plain Rust (the kernel off x86-64; on x86-64, the tests' oracle).
+#[cfg(any(test, not(target_arch = "x86_64")))]
+#[inline(always)]
+fn row_hits_portable(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
+    let [lx, ly, lz, hx, hy, hz] = view.cols;
+    let (lo, hi) = (head.lo, head.hi);
+    let end = start + len.div_ceil(8) * 8;
+    let mut bits = 0u64;
+    for (w, b) in (start..end).step_by(8).enumerate() {
+        let mut row = [0u8; 8];
+        for k in 0..8 {
+            row[k] = u8::from(
+                (lx[b + k] <= hi[0])
+                    & (hx[b + k] >= lo[0])
+                    & (ly[b + k] <= hi[1])
+                    & (hy[b + k] >= lo[1])
+                    & (lz[b + k] <= hi[2])
+                    & (hz[b + k] >= lo[2]),
+            );
+        }
+        // Each byte is 0 or 1: the product gathers the eight low bits into the top byte.
+        bits |= (u64::from_le_bytes(row).wrapping_mul(GATHER_BYTES) >> 56) << (8 * w);
+    }
+    bits
+}
+
+/// Box tests of one row with AVX2, eight boxes per compare (see [`row_hits_base`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(unsafe_code)]
+fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
+    use std::arch::x86_64::{
+        __m256, _CMP_LE_OQ, _mm256_and_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_movemask_ps,
+        _mm256_set1_ps,
+    };
+    let octets = len.div_ceil(8);
+    // One check for all six columns, which are `view.len` long.
+    assert!(start + 8 * octets <= view.len);
+    let [lx, ly, lz, hx, hy, hz] = view.cols.map(|c| c.as_ptr());
+    let (lo, hi) = (head.lo, head.hi);
+    let (lo_x, lo_y, lo_z) = (
+        _mm256_set1_ps(lo[0]),
+        _mm256_set1_ps(lo[1]),
+        _mm256_set1_ps(lo[2]),
+    );
+    let (hi_x, hi_y, hi_z) = (
+        _mm256_set1_ps(hi[0]),
+        _mm256_set1_ps(hi[1]),
+        _mm256_set1_ps(hi[2]),
+    );
+    // Eight consecutive floats of a column, octet `q` of the row.
+    let octet = |c: *const f32, q: usize| -> __m256 {
+        // SAFETY: `q < octets`, so the eight floats end at most at `start + 8 * octets`, inside
+        // the column (asserted above).
+        unsafe { _mm256_loadu_ps(c.add(start + 8 * q)) }
+    };
+    // Ordered comparisons: false for the NaN padding.
+    let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
+    let mut bits = 0u64;
+    for q in 0..octets {
+        let x = _mm256_and_ps(le(octet(lx, q), hi_x), le(lo_x, octet(hx, q)));
+        let y = _mm256_and_ps(le(octet(ly, q), hi_y), le(lo_y, octet(hy, q)));
+        let z = _mm256_and_ps(le(octet(lz, q), hi_z), le(lo_z, octet(hz, q)));
+        let hit = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(x, y), z)) as u64;
+        bits |= hit << (8 * q);
+    }
+    bits
+}
+
+/// Whether the processor supports AVX2 (checked once by the standard library, then cached).
+#[cfg(target_arch = "x86_64")]
+fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn has_avx2() -> bool {
+    false
+}
+
 /// Bit sets of the earlier cells ([`earlier_cells`]): a cell `d` away from the entry's cell
 /// (`d` in `-2..=2` on each axis, before it in key order) is bit `25 (dx + 2) + 5 (dy + 2) +
 /// (dz + 2)`, one of bits 0 to 61 since key order is lexicographic.
@@ -501,33 +718,110 @@ pub(crate) fn earlier_bits(cells: &[[i64; 3]], out: &mut Vec<u64>) {
     }));
 }
 
-/// What the bit sets of two sections in a cell say about reporting their pair there.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Owner {
-    /// No earlier cell is shared: report here.
-    Yes,
-    /// An earlier cell is shared: it reports the pair.
-    No,
-    /// The bit sets cannot tell (a shared cell may lie outside the window): read the key lists.
-    Unsure,
-}
-
-#[inline]
-fn owner(a: u64, b: u64) -> Owner {
+/// What the bit sets of two sections in a cell say about reporting their pair there:
+/// `(here, unsure)`. `here`: no earlier cell is shared, so this cell reports the pair. `unsure`:
+/// the bit sets cannot tell (a shared cell may lie outside the window), so the key lists decide.
+/// Neither: an earlier shared cell reports it. Plain bit arithmetic, no branch: the outcome is
+/// unpredictable, and a branch on it is mispredicted about every other box hit.
+#[inline(always)]
+fn owner(a: u64, b: u64) -> (bool, bool) {
     let both = a & b;
-    let unsure = ((a | b) & UNKNOWN != 0) | (both & WINDOW == 0);
-    // Selects rather than branches: the outcome is unpredictable.
-    match (both == 0, unsure) {
-        (true, _) => Owner::Yes,
-        (false, true) => Owner::Unsure,
-        (false, false) => Owner::No,
-    }
+    let unsure = (both != 0) & (((a | b) & UNKNOWN != 0) | (both & WINDOW == 0));
+    (both == 0, unsure)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::CellKey;
+    use crate::{CellKey, GridConfig, Section};
+    use hair_ssv::{Lss, Point};
+
+    /// A seeded generator for the kernel tests.
+    fn lcg(z: &mut u64) -> f32 {
+        *z = z
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (*z >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    #[test]
+    fn row_kernels_agree_with_the_plain_box_test() {
+        let mut z = 3u64;
+        for m in [2usize, 5, 8, 9, 31, 64, 65, 130] {
+            let mut cols = CellCols::default();
+            for col in cols.boxes.iter_mut() {
+                col.resize(m + PAD, f32::NAN);
+            }
+            // Coordinates on a coarse lattice, so that boxes often touch exactly.
+            for e in 0..m {
+                for k in 0..3 {
+                    let lo = (lcg(&mut z) * 16.0).floor() / 16.0;
+                    cols.boxes[k][e] = lo;
+                    cols.boxes[k + 3][e] = lo + (lcg(&mut z) * 5.0).floor() / 16.0;
+                }
+            }
+            let view = CellView::new(&cols, m + PAD);
+            for a in 0..m - 1 {
+                let head = RowHead {
+                    lo: [0, 1, 2].map(|k| cols.boxes[k][a]),
+                    hi: [3, 4, 5].map(|k| cols.boxes[k][a]),
+                };
+                let n = m - a - 1;
+                for g in 0..n.div_ceil(64) {
+                    let (start, len) = (a + 1 + 64 * g, (n - 64 * g).min(64));
+                    let expect: u64 = (0..len)
+                        .filter(|&k| {
+                            let b = start + k;
+                            (0..3).all(|d| {
+                                cols.boxes[d][b] <= head.hi[d] && cols.boxes[d + 3][b] >= head.lo[d]
+                            })
+                        })
+                        .map(|k| 1u64 << k)
+                        .sum();
+                    assert_eq!(row_hits_portable(&view, &head, start, len), expect);
+                    assert_eq!(row_hits::<false>(&view, &head, start, len), expect);
+                    #[cfg(target_arch = "x86_64")]
+                    if has_avx2() {
+                        #[allow(unsafe_code)]
+                        // SAFETY: AVX2 was found on this processor.
+                        let avx2 = unsafe { row_hits_avx2(&view, &head, start, len) };
+                        assert_eq!(avx2, expect);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_pair_search_is_the_same_with_every_kernel() {
+        // Strands in a 4 cm box, dense enough for cells of tens of sections.
+        let mut z = 11u64;
+        let mut sections = Vec::new();
+        for s in 0..400u32 {
+            let mut p = Point::new(lcg(&mut z), lcg(&mut z), lcg(&mut z)) * 0.04;
+            for k in 0..8 {
+                let d =
+                    Point::new(lcg(&mut z), lcg(&mut z), lcg(&mut z)) - Point::new(0.5, 0.5, 0.5);
+                let q = p + d * 0.012;
+                let shape = Ssv::Line(Lss::new(p, q, 0.0005));
+                sections.push(Section {
+                    skeleton: s,
+                    segment: k,
+                    shape,
+                });
+                p = q;
+            }
+        }
+        let mut grid = crate::Grid::new(GridConfig::default());
+        grid.rebuild(&sections).unwrap();
+        for exact in [false, true] {
+            let (mut base, mut wide) = (PairSet::new(), PairSet::new());
+            grid.enumerate_pairs_with(&mut base, exact, false);
+            grid.enumerate_pairs_with(&mut wide, exact, true);
+            assert!(base.len() > 1000, "{}", base.len());
+            assert_eq!(base.to_vec(), wide.to_vec());
+        }
+    }
 
     fn keys(cells: &[[i32; 3]]) -> Vec<u64> {
         cells
@@ -576,11 +870,12 @@ mod tests {
 
     #[test]
     fn owner_reads_the_bit_sets() {
-        assert_eq!(owner(0, bit([-1, 0, 0])), Owner::Yes);
-        assert_eq!(owner(bit([-1, 0, 0]), bit([0, -1, 0])), Owner::Yes);
-        assert_eq!(owner(bit([-1, 0, 0]), bit([-1, 0, 0])), Owner::No);
-        assert_eq!(owner(OUTSIDE, OUTSIDE | bit([0, 0, -1])), Owner::Unsure);
-        assert_eq!(owner(u64::MAX, bit([0, 0, -1])), Owner::Unsure);
-        assert_eq!(owner(u64::MAX, 0), Owner::Yes);
+        let (yes, no, unsure) = ((true, false), (false, false), (false, true));
+        assert_eq!(owner(0, bit([-1, 0, 0])), yes);
+        assert_eq!(owner(bit([-1, 0, 0]), bit([0, -1, 0])), yes);
+        assert_eq!(owner(bit([-1, 0, 0]), bit([-1, 0, 0])), no);
+        assert_eq!(owner(OUTSIDE, OUTSIDE | bit([0, 0, -1])), unsure);
+        assert_eq!(owner(u64::MAX, bit([0, 0, -1])), unsure);
+        assert_eq!(owner(u64::MAX, 0), yes);
     }
 }
