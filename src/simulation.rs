@@ -7,7 +7,7 @@
 use crate::adaptive::{AdaptiveLod, View};
 use crate::body::BodyModel;
 use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
-use crate::scene::{IntegratorSpec, LodPolicy, Scene, TorqueSpec};
+use crate::scene::{CollisionMethod, IntegratorSpec, LodPolicy, Scene, TorqueSpec};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
 use hair_dynamics::{
     Environment, Integrator, LinearSolver, Material, NodeCorrection, SkeletonId, StepSettings,
@@ -850,8 +850,9 @@ impl Simulation {
     /// over the remaining steps, so hair that starts inside comes out gently. Passes repeat on
     /// the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of the
     /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
-    /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Returns the nodes in contact on the first pass and the
-    /// deepest node centre left inside the body (m).
+    /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Passes from
+    /// [`BODY_PASSES`] on use the exact distance whatever the scene's method. Returns the nodes in
+    /// contact on the first pass and the deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
             return Ok((0, 0.0));
@@ -892,6 +893,15 @@ impl Simulation {
         let skin = CONTACT_SKIN * self.scene.collision.tolerance;
         for pass in 0..=MAX_BODY_PASSES {
             let positions = self.state.positions();
+            // The late passes, on the few nodes still moving, query the exact distance: an
+            // approximate field or table can be wrong by about its spacing where the body is
+            // thinner than that, and there its gradient can send a node back and forth across
+            // the surface without ever reaching it.
+            let method = if pass >= BODY_PASSES {
+                CollisionMethod::Bvh
+            } else {
+                method
+            };
             self.body_nodes
                 .par_iter()
                 .map(|bn| {
