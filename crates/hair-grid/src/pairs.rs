@@ -629,13 +629,14 @@ fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u
     };
     // Ordered comparisons: false for the NaN padding.
     let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
+    // Last octet first, so that each step shifts by a constant.
     let mut bits = 0u64;
-    for q in 0..octets {
+    for q in (0..octets).rev() {
         let x = _mm256_and_ps(le(octet(lx, q), hi_x), le(lo_x, octet(hx, q)));
         let y = _mm256_and_ps(le(octet(ly, q), hi_y), le(lo_y, octet(hy, q)));
         let z = _mm256_and_ps(le(octet(lz, q), hi_z), le(lo_z, octet(hz, q)));
-        let hit = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(x, y), z)) as u64;
-        bits |= hit << (8 * q);
+        let hit = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(x, y), z)) as u32;
+        bits = (bits << 8) | u64::from(hit);
     }
     bits
 }
