@@ -29,16 +29,20 @@
 //! order then reads a sliding window of nearby memory instead of one cache miss per entry, as the
 //! caller's strand order would give.
 //!
-//! Per cell, the search gathers the boxes into columns and tests each row of pairs with packed
-//! compares; a box hit on the same skeleton within `skip_neighbours` is dropped; otherwise it is
-//! reported only by the first cell (in key order) both sections cover. The rebuild stores with
-//! each entry its section's earlier cells, as a bit set of the 5 x 5 x 5 window around the cell,
-//! so that this test is one AND of two words read in cell order (no key lists, no hash set; the
-//! key lists decide only when a cover leaves the window);
+//! Per cell, the search gathers the boxes into columns and tests each row of pairs eight boxes
+//! per instruction with AVX2 (detected at run time; the whole task is then compiled for it) or
+//! four with SSE2 (part of every x86-64), giving a word of hit bits per 64 boxes (plain Rust on
+//! other processors); a box hit on the same skeleton within `skip_neighbours` is dropped;
+//! otherwise it is reported only by the first cell (in key order) both sections cover. The
+//! rebuild stores with each entry its section's earlier cells, as a bit set of the 5 x 5 x 5
+//! window around the cell, so that this test is one AND of two words read in cell order (no key
+//! lists, no hash set; the key lists decide only when a cover leaves the window), computed
+//! without a branch (its outcome is unpredictable);
 //! the survivors get the exact LSS-LSS distance eight at a time, and any pair within a rounding
 //! band of the margin (or not two LSS) goes to the scalar `hair-ssv` kernel, so the set is
 //! exactly `Ssv::distance <= margin`. Cells are split into fixed tasks of 256 and the output is
-//! their concatenation in order, so it does not depend on the number of threads.
+//! their concatenation in order, so it does not depend on the number of threads or on the
+//! kernel (a test runs both).
 //!
 //! Measured on the `hair bench grid` scene (300,000 segments of about 1 cm, radius 0.5 mm, on a
 //! head-sized shell; 865,502 entries, 1.2 M candidates, 199,478 overlapping pairs), one thread,
@@ -67,10 +71,23 @@
 //! `cargo run --release -- bench grid --json`, run alternately with the previous build on the
 //! shared 2-core machine (load about 4), `build_ms` went from 86-104 ms to 63-95 ms and
 //! `pairs_ms` did not change.
+//!
+//! The pair search then went from 657 M to 430 M instructions (one thread, `grid_profile pairs`,
+//! half the difference of 1 and 3 repeats under callgrind) and from 75 ms to 49 ms on one thread
+//! (fastest of 10, `RAYON_NUM_THREADS=1 grid_profile pairs 10`, with a build running on the other
+//! core), pairs identical and in the same order. The steps: box rows by SSE2 compares and
+//! `movemask` instead of bytes gathered into bits (657 M to 515 M), by AVX2 (438 M once the whole
+//! task is compiled for it: a call per row cost more than the row), and the owner test as bit
+//! arithmetic (a branch on it was mispredicted about every other hit: 57 ms to 49 ms, instructions
+//! unchanged). Of the 430 M, about 365 M find the candidates (`grid_profile candidates`) and 65 M
+//! are the exact test.
 //! Measured and dropped: a two-pass radix sort instead of the single counting scatter (more
 //! instructions and more simulated cache misses, no faster), a line-line distance bound before the
 //! exact test (hair is close to parallel, so it rejects too few candidates to pay for itself),
-//! and testing rows of boxes in groups of four instead of eight (more instructions).
+//! and testing rows of boxes in groups of four instead of eight (more instructions); with AVX2,
+//! running the neighbour and owner tests lane-wise on every group of eight holding a box hit
+//! (505 M instead of 436 M instructions), and smaller cells (0.5 to 0.8 cm: fewer box tests, but
+//! both the rebuild and the search slower).
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
