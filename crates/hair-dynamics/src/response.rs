@@ -124,13 +124,19 @@ impl StrandState {
         touched.clear();
         for c in corrections {
             targets[c.node as usize] += c.delta;
-            let s = self.skeleton_of(c.node as usize);
-            if touched.last() != Some(&s) {
+            let s = self.node_skeleton[c.node as usize];
+            let mark = &mut self.slot_scratch[s as usize];
+            if *mark == u32::MAX {
+                *mark = 0;
                 touched.push(s);
             }
         }
+        // Each skeleton once, ascending: a sort of the touched skeletons only (hair-hair gives
+        // two corrections per pair, hundreds of thousands, on a few thousand skeletons).
         touched.sort_unstable();
-        touched.dedup();
+        for &s in &touched {
+            self.slot_scratch[s as usize] = u32::MAX;
+        }
         // Skeletons are independent: refit them in parallel.
         let (run, offsets, counts) = self.run_with_layout();
         let targets_ref = &targets;
@@ -184,21 +190,46 @@ impl StrandState {
         let mut order = std::mem::take(&mut self.order_scratch);
         let mut groups = std::mem::take(&mut self.group_scratch);
         let mut touched = std::mem::take(&mut self.touched_scratch);
-        order.clear();
-        order.extend(0..constraints.len() as u32);
-        order.sort_unstable_by_key(|&k| {
-            (self.skeleton_of(constraints[k as usize].node as usize), k)
-        });
+        // A counting sort by skeleton: the touched skeletons ascending, then each constraint
+        // placed in its skeleton's group in its original order.
         touched.clear();
-        groups.clear();
-        for (at, &k) in order.iter().enumerate() {
-            let s = self.skeleton_of(constraints[k as usize].node as usize);
-            if touched.last() != Some(&s) {
+        for c in constraints {
+            let s = self.node_skeleton[c.node as usize];
+            let mark = &mut self.slot_scratch[s as usize];
+            if *mark == u32::MAX {
+                *mark = 0;
                 touched.push(s);
-                groups.push(at as u32);
             }
         }
-        groups.push(order.len() as u32);
+        touched.sort_unstable();
+        groups.clear();
+        groups.resize(touched.len() + 1, 0);
+        for (g, &s) in touched.iter().enumerate() {
+            self.slot_scratch[s as usize] = g as u32;
+        }
+        for c in constraints {
+            let s = self.node_skeleton[c.node as usize];
+            groups[self.slot_scratch[s as usize] as usize + 1] += 1;
+        }
+        for g in 1..groups.len() {
+            groups[g] += groups[g - 1];
+        }
+        order.clear();
+        order.resize(constraints.len(), 0);
+        // Each group's start serves as its cursor.
+        for (k, c) in constraints.iter().enumerate() {
+            let g = self.slot_scratch[self.node_skeleton[c.node as usize] as usize] as usize;
+            order[groups[g] as usize] = k as u32;
+            groups[g] += 1;
+        }
+        // The cursors ran to the ends of their groups: shift back to the starts.
+        for g in (1..groups.len()).rev() {
+            groups[g] = groups[g - 1];
+        }
+        groups[0] = 0;
+        for &s in &touched {
+            self.slot_scratch[s as usize] = u32::MAX;
+        }
         let (run, offsets, counts) = self.run_with_layout();
         let (order_ref, groups_ref, touched_ref) = (&order, &groups, &touched);
         for_each_skeleton(run, &touched, offsets, &|run, k| {
@@ -237,7 +268,7 @@ impl StrandState {
         touched.clear();
         for (node, v) in targets {
             self.velocities[*node as usize] = *v;
-            touched.push(self.skeleton_of(*node as usize));
+            touched.push(self.node_skeleton[*node as usize]);
         }
         touched.sort_unstable();
         touched.dedup();
@@ -293,11 +324,10 @@ impl StrandState {
     }
 
     /// The skeleton that owns a node slot.
+    ///
+    /// # Panics
+    /// If `node` is not a node slot (`node >= node_count()`).
     pub fn skeleton_of(&self, node: usize) -> u32 {
-        // Offsets increase with the skeleton index: binary search.
-        match self.offsets.binary_search(&(node as u32)) {
-            Ok(s) => s as u32,
-            Err(s) => (s - 1) as u32,
-        }
+        self.node_skeleton[node]
     }
 }

@@ -146,6 +146,10 @@ pub struct StrandState {
     pub(crate) force_scratch: Vec<Vector>,
     pub(crate) target_scratch: Vec<Point>,
     pub(crate) touched_scratch: Vec<u32>,
+    /// The skeleton owning each node slot (nodes are only ever appended, a skeleton at a time).
+    pub(crate) node_skeleton: Vec<u32>,
+    /// Per skeleton, `u32::MAX`, or while a response runs, its group among the touched ones.
+    pub(crate) slot_scratch: Vec<u32>,
     /// Constraint indices grouped by skeleton, and where each skeleton's group starts.
     pub(crate) order_scratch: Vec<u32>,
     pub(crate) group_scratch: Vec<u32>,
@@ -266,6 +270,9 @@ impl StrandState {
             }
         }
         self.offsets.push(offset as u32);
+        self.node_skeleton
+            .extend(std::iter::repeat_n(skeleton as u32, n));
+        self.slot_scratch.push(u32::MAX);
         self.counts.push(n as u32);
         self.capacities.push(n as u32);
         self.roots.push(RootState {
