@@ -114,9 +114,7 @@ pub(crate) fn segment(
 
 /// The cells of the range `lo..=hi` (at most `out.len()` of them) that meet the segment
 /// `a`-`b` grown by a cube of half-side `r`, in increasing `(x, y, z)` order; returns their
-/// number. A cell is kept when the parameter intervals of its three slabs, grown by `r`,
-/// intersect within `[0, 1]`: the same cells as [`segment`] up to rounding (both hold every
-/// cell the grown segment meets), for a segment whose cell range is small.
+/// number. See [`short_mask`].
 pub(crate) fn short_segment(
     a: [f64; 3],
     b: [f64; 3],
@@ -125,6 +123,26 @@ pub(crate) fn short_segment(
     hi: [i64; 3],
     out: &mut [[i64; 3]],
 ) -> usize {
+    let n = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1).clamp(0, 4) as usize);
+    let mut mask = short_mask(a, b, r, lo, n);
+    let mut m = 0;
+    while mask != 0 && m < out.len() {
+        let t = i64::from(mask.trailing_zeros());
+        mask &= mask - 1;
+        out[m] = [lo[0] + (t >> 4), lo[1] + ((t >> 2) & 3), lo[2] + (t & 3)];
+        m += 1;
+    }
+    m
+}
+
+/// The cells `lo + (i, j, k)`, `i < n[0]`, `j < n[1]`, `k < n[2]` (each `n` at most 4) that meet
+/// the segment `a`-`b` grown by a cube of half-side `r`, as bit `16 i + 4 j + k` of a mask (bit
+/// order is key order). A cell is kept when the parameter intervals of its three slabs, grown by
+/// `r`, intersect within `[0, 1]`: the same cells as [`segment`] up to rounding (both hold every
+/// cell the grown segment meets), for a segment whose cell range is small. No list is built, so
+/// that the caller can derive keys and earlier-cell bit sets from the mask directly.
+#[inline]
+pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
     // Plain comparisons rather than `f64::max`: every value here is finite.
     #[inline(always)]
     fn mx(a: f64, b: f64) -> f64 {
@@ -135,16 +153,16 @@ pub(crate) fn short_segment(
         if a < b { a } else { b }
     }
     // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
-    // when lower > upper).
+    // when lower > upper). All four slots are computed, without branches; the slots beyond the
+    // range are then emptied.
     let mut t0 = [[0.0f64; 4]; 3];
     let mut t1 = [[-1.0f64; 4]; 3];
-    let n = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1).clamp(0, 4) as usize);
     for k in 0..3 {
         let d = b[k] - a[k];
         if d.abs() > TINY {
             let inv = 1.0 / d;
             let base = lo[k] as f64 - a[k];
-            for c in 0..n[k] {
+            for c in 0..4 {
                 let f = base + c as f64;
                 let (s0, s1) = ((f - r) * inv, (f + 1.0 + r) * inv);
                 let (s0, s1) = if s0 > s1 { (s1, s0) } else { (s0, s1) };
@@ -152,34 +170,37 @@ pub(crate) fn short_segment(
                 t1[k][c] = mn(s1, 1.0);
             }
         } else {
-            for c in 0..n[k] {
+            for c in 0..4 {
                 let f = (lo[k] + c as i64) as f64;
-                if a[k] >= f - r && a[k] <= f + 1.0 + r {
-                    t1[k][c] = 1.0;
-                }
+                t0[k][c] = 0.0;
+                t1[k][c] = if a[k] >= f - r && a[k] <= f + 1.0 + r {
+                    1.0
+                } else {
+                    -1.0
+                };
+            }
+        }
+        for c in 0..4 {
+            if c >= n[k] {
+                t0[k][c] = 2.0;
+                t1[k][c] = -1.0;
             }
         }
     }
-    let mut m = 0;
+    // A cell is kept when the largest of its three lower bounds is at most the smallest upper
+    // bound (an empty interval fails by itself); the four z cells of a column at once.
+    let mut mask = 0u64;
     for i in 0..n[0] {
-        let (x0, x1) = (t0[0][i], t1[0][i]);
-        if x0 > x1 {
-            continue;
-        }
         for j in 0..n[1] {
-            let (y0, y1) = (mx(t0[1][j], x0), mn(t1[1][j], x1));
-            if y0 > y1 {
-                continue;
+            let (y0, y1) = (mx(t0[1][j], t0[0][i]), mn(t1[1][j], t1[0][i]));
+            let mut bits = 0u64;
+            for k in 0..4 {
+                bits |= u64::from(mx(t0[2][k], y0) <= mn(t1[2][k], y1)) << k;
             }
-            for k in 0..n[2] {
-                if mx(t0[2][k], y0) <= mn(t1[2][k], y1) && m < out.len() {
-                    out[m] = [lo[0] + i as i64, lo[1] + j as i64, lo[2] + k as i64];
-                    m += 1;
-                }
-            }
+            mask |= bits << (16 * i + 4 * j);
         }
     }
-    m
+    mask
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

@@ -175,7 +175,21 @@ fn invalid_field(shape: &Ssv) -> Option<&'static str> {
     }
 }
 
+/// A core length in integer nanometres, `(l.min(1e9) * 1e9).round()`, 0 when not finite.
+/// `round` is a libm call on the baseline target; for `0 <= x < 2^63` it is `trunc(x)`, plus
+/// one when the fraction `x - trunc(x)` (exact) is at least 1/2, which is the same value.
+#[inline]
+fn nanometres(l: f64) -> u64 {
+    if !l.is_finite() {
+        return 0;
+    }
+    let x = l.min(1e9) * 1e9;
+    let t = x as u64;
+    t + u64::from(x - t as f64 >= 0.5)
+}
+
 /// Core length used for the default cell size.
+#[inline]
 fn core_length(shape: &Ssv) -> f64 {
     match shape {
         Ssv::Point(_) => 0.0,
@@ -251,6 +265,118 @@ pub(crate) fn walk_core(
 /// axis) are covered by testing each cell of the range ([`cover::short_segment`]), into a local
 /// array; the others by the slab walk.
 const SHORT: usize = 32;
+
+/// The cell range and cover mask ([`cover::short_mask`]) of a valid LSS whose cell range is
+/// short (as in the general path), or `None` for any other LSS (not finite, negative radius,
+/// outside the lattice, a longer range): the general path then covers it or reports the error.
+/// Every value is computed by the same expressions as [`core_in_cells`] and [`cell_range`].
+#[inline]
+fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64; 3], u64)> {
+    // `abs() < INFINITY` is false for infinities and NaN.
+    let fin = |v: f32| v.abs() < f32::INFINITY;
+    let ok = fin(l.a.x)
+        & fin(l.a.y)
+        & fin(l.a.z)
+        & fin(l.b.x)
+        & fin(l.b.y)
+        & fin(l.b.z)
+        & fin(l.radius)
+        & (l.radius >= 0.0);
+    if !ok {
+        return None;
+    }
+    let (va, vb) = (cells_of(&l.a, inv), cells_of(&l.b, inv));
+    let r = (f64::from(l.radius) + grow) * inv + EPS_CELLS;
+    let mut cl = [0i64; 3];
+    let mut ch = [0i64; 3];
+    let mut n = [0usize; 3];
+    let mut inside = true;
+    for k in 0..3 {
+        let (mn, mx) = if va[k] < vb[k] {
+            (va[k], vb[k])
+        } else {
+            (vb[k], va[k])
+        };
+        cl[k] = cover::floor_i(mn - r);
+        ch[k] = cover::floor_i(mx + r);
+        inside &= (cl[k] >= -LATTICE_HALF) & (ch[k] < LATTICE_HALF);
+        n[k] = (ch[k] - cl[k] + 1) as usize;
+    }
+    let short = inside & (n[0] <= 4) & (n[1] <= 4) & (n[2] <= 4) && n[0] * n[1] * n[2] <= SHORT;
+    short.then(|| (cl, ch, cover::short_mask(va, vb, r, cl, n)))
+}
+
+/// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
+/// ([`crate::pairs::earlier_bits`]): `25 (dx + 2) + 5 (dy + 2) + (dz + 2)` inside the 5 x 5 x 5
+/// window (`dx >= -2`, `|dy|, |dz| <= 2`), else `OUTSIDE`. Indexed by `49 dx + 7 dy + dz + 171`
+/// (unique for such offsets), so that an offset is one subtraction of two cell codes
+/// ([`SHORT_CODE`]) and one load.
+const OFFSET_BIT: [u64; 343] = {
+    let mut t = [0u64; 343];
+    let mut i = 0;
+    while i < 343 {
+        let (dx, dy, dz) = (i as i64 / 49 - 3, (i as i64 / 7) % 7 - 3, i as i64 % 7 - 3);
+        // Offsets not before the cell in key order are unused.
+        let before = dx < 0 || (dx == 0 && (dy < 0 || (dy == 0 && dz < 0)));
+        t[i] = if !before {
+            0
+        } else if dx < -2 || dy < -2 || dy > 2 || dz < -2 || dz > 2 {
+            crate::pairs::OUTSIDE
+        } else {
+            1 << ((dx + 2) * 25 + (dy + 2) * 5 + (dz + 2))
+        };
+        i += 1;
+    }
+    t
+};
+
+/// Code `49 i + 7 j + k` of the cell `(i, j, k)` of a short range, by its mask bit
+/// `16 i + 4 j + k`.
+const SHORT_CODE: [u16; 64] = {
+    let mut t = [0u16; 64];
+    let mut b = 0;
+    while b < 64 {
+        t[b] = (49 * (b >> 4) + 7 * ((b >> 2) & 3) + (b & 3)) as u16;
+        b += 1;
+    }
+    t
+};
+
+/// Packed-key offset of the cell `(i, j, k)` of a short range from its first cell, by mask bit.
+const SHORT_KEY: [u64; 64] = {
+    let mut t = [0u64; 64];
+    let mut b = 0;
+    while b < 64 {
+        t[b] = (((b >> 4) as u64) << 42) | ((((b >> 2) & 3) as u64) << 21) | (b & 3) as u64;
+        b += 1;
+    }
+    t
+};
+
+/// Appends the keys of a cover given as a mask over the cells from `cl` (bit `16 i + 4 j + k`
+/// for cell `cl + (i, j, k)`, so that bit order is key order) and their earlier-cell bit sets,
+/// the same sets as [`crate::pairs::earlier_bits`] gives (an earlier cell `dx < -2` away along
+/// x is `OUTSIDE` there too, only found without looking further back).
+#[inline]
+fn push_mask(cl: [i64; 3], mut mask: u64, keys: &mut Vec<u64>, earlier: &mut Vec<u64>) {
+    let base = pack_i64(cl);
+    let mut prev = [0u16; SHORT];
+    let mut m = 0;
+    while mask != 0 {
+        let t = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        keys.push(base + SHORT_KEY[t]);
+        // 171 + code(p) - code(t) >= 0: the offset index of p from t.
+        let c = 171 - SHORT_CODE[t] as usize;
+        let mut bits = 0u64;
+        for &p in &prev[..m] {
+            bits |= OFFSET_BIT[c + p as usize];
+        }
+        earlier.push(bits);
+        prev[m & (SHORT - 1)] = SHORT_CODE[t];
+        m += 1;
+    }
+}
 
 const AXES: [char; 3] = ['x', 'y', 'z'];
 const MASK21: u64 = (1 << 21) - 1;
@@ -515,15 +641,13 @@ impl Grid {
                 if sections.is_empty() {
                     1.0
                 } else {
+                    // Per chunk, a plain loop (no per-section closure calls from rayon).
                     let total: u64 = sections
-                        .par_iter()
-                        .map(|s| {
-                            let l = core_length(&s.shape);
-                            if l.is_finite() {
-                                (l.min(1e9) * 1e9).round() as u64
-                            } else {
-                                0
-                            }
+                        .par_chunks(CHUNK)
+                        .map(|c| {
+                            c.iter()
+                                .map(|s| nanometres(core_length(&s.shape)))
+                                .sum::<u64>()
                         })
                         .sum();
                     let mean = (total as f64 * 1e-9 / sections.len() as f64) as Real;
@@ -600,6 +724,39 @@ impl Grid {
                     let index = ci * CHUNK + l;
                     if error.is_some() {
                         break;
+                    }
+                    // Nearly every hair section is a valid LSS with a small cell range: its cover
+                    // comes as a mask, from which the keys and earlier-cell bit sets follow
+                    // without a list of cells. Anything else, including every error, takes the
+                    // general path below.
+                    // (No popcount on the baseline target: the cells are counted only when the
+                    // limit is below the largest short cover.)
+                    if let Ssv::Line(ln) = &s.shape
+                        && let Some((cl, ch, mask)) = short_line(ln, inv, grow)
+                        && (limit >= SHORT as u64 || u64::from(mask.count_ones()) <= limit)
+                    {
+                        shapes[l] = s.shape;
+                        let (a, b) = ln.aabb();
+                        recs[l] = Rec {
+                            aabb: [
+                                a.x - slack,
+                                a.y - slack,
+                                a.z - slack,
+                                b.x + slack,
+                                b.y + slack,
+                                b.z + slack,
+                            ],
+                            skeleton: s.skeleton,
+                            segment: s.segment,
+                            line: line_of(&s.shape),
+                        };
+                        for k in 0..3 {
+                            lo[k] = lo[k].min(cl[k]);
+                            hi[k] = hi[k].max(ch[k]);
+                        }
+                        push_mask(cl, mask, keys, earlier);
+                        start.push(keys.len() as u32);
+                        continue;
                     }
                     if let Some(field) = invalid_field(&s.shape) {
                         *error = Some(GridError::InvalidShape {
@@ -938,5 +1095,53 @@ impl Grid {
                 self.cell_start.push(entries as u32);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hair_ssv::Lss;
+
+    #[test]
+    fn short_lines_give_the_keys_and_bit_sets_of_the_walk() {
+        // Seeded segments of about one cell, some along a lattice axis, at several radii.
+        let mut z = 11u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut tested = 0;
+        for n in 0..20_000 {
+            let a = Point::new(unit() * 8.0 - 4.0, unit() * 8.0 - 4.0, unit() * 8.0 - 4.0);
+            let mut b = Point::new(a.x + unit() * 2.0 - 1.0, a.y + unit() - 0.5, a.z + unit());
+            if n % 5 == 0 {
+                b[n % 3] = a[n % 3];
+            }
+            let l = Lss::new(a, b, unit() * 0.3);
+            let (inv, grow) = (1.0 + f64::from(unit()), f64::from(unit()) * 0.01);
+            let Some((cl, _, mask)) = short_line(&l, inv, grow) else {
+                continue;
+            };
+            let (mut keys, mut bits) = (Vec::new(), Vec::new());
+            push_mask(cl, mask, &mut keys, &mut bits);
+            let (v, m, r) = core_in_cells(&Ssv::Line(l), inv, grow);
+            let mut walk = Vec::new();
+            walk_core(
+                &v[..m],
+                r,
+                &CellBox::ALL,
+                u64::MAX,
+                &mut Vec::new(),
+                &mut |c| walk.push(pack_i64(c)),
+            )
+            .unwrap();
+            let mut walk_bits = Vec::new();
+            crate::pairs::earlier_cells(&walk, &mut walk_bits);
+            assert_eq!(keys, walk, "{l:?}");
+            assert_eq!(bits, walk_bits, "{l:?}");
+            tested += 1;
+        }
+        assert!(tested > 10_000, "{tested}");
     }
 }
