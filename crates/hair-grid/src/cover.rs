@@ -114,7 +114,7 @@ pub(crate) fn segment(
 
 /// The cells of the range `lo..=hi` (at most `out.len()` of them) that meet the segment
 /// `a`-`b` grown by a cube of half-side `r`, in increasing `(x, y, z)` order; returns their
-/// number. See [`short_mask`].
+/// number. `lo..=hi` must be the segment's cell range grown by `r`; see [`short_mask`].
 pub(crate) fn short_segment(
     a: [f64; 3],
     b: [f64; 3],
@@ -140,7 +140,9 @@ pub(crate) fn short_segment(
 /// order is key order). A cell is kept when the parameter intervals of its three slabs, grown by
 /// `r`, intersect within `[0, 1]`: the same cells as [`segment`] up to rounding (both hold every
 /// cell the grown segment meets), for a segment whose cell range is small. No list is built, so
-/// that the caller can derive keys and earlier-cell bit sets from the mask directly.
+/// that the caller can derive keys and earlier-cell bit sets from the mask directly. `lo` and
+/// `lo + n - 1` must be the segment's cell range grown by `r` (`floor(min - r)`,
+/// `floor(max + r)` per axis), as [`crate::grid::cell_range`] gives.
 #[inline]
 pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
     // Plain comparisons rather than `f64::max`: every value here is finite.
@@ -153,51 +155,54 @@ pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usi
         if a < b { a } else { b }
     }
     // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
-    // when lower > upper). All four slots are computed, without branches; the slots beyond the
-    // range are then emptied.
+    // when lower > upper), clamped to [0, 1]. Along a segment that is not flat on that axis,
+    // the slabs are crossed in order, and the first cell's interval starts at the segment's
+    // start and the last one's ends at its end: the range was rounded outwards from the ends
+    // grown by `r >= 0.001` cell, so that these bounds are beyond [0, 1] by at least `2 r / |d|`
+    // and clamp to exactly 0 and 1. Only the bounds between two cells of the range are
+    // computed, by the same expressions as the general test (`f = lo - a + c`, `(f - r) / d`,
+    // `(f + 1 + r) / d`): none for an axis of one cell.
     let mut t0 = [[0.0f64; 4]; 3];
-    let mut t1 = [[-1.0f64; 4]; 3];
+    let mut t1 = [[1.0f64; 4]; 3];
     for k in 0..3 {
+        if n[k] <= 1 {
+            continue;
+        }
         let d = b[k] - a[k];
         if d.abs() > TINY {
             let inv = 1.0 / d;
             let base = lo[k] as f64 - a[k];
-            for c in 0..4 {
-                let f = base + c as f64;
-                let (s0, s1) = ((f - r) * inv, (f + 1.0 + r) * inv);
-                let (s0, s1) = if s0 > s1 { (s1, s0) } else { (s0, s1) };
-                t0[k][c] = mx(s0, 0.0);
-                t1[k][c] = mn(s1, 1.0);
+            for c in 0..n[k] - 1 {
+                // Upper slab bound of cell c, lower slab bound of cell c + 1.
+                let up = (base + c as f64 + 1.0 + r) * inv;
+                let down = (base + (c + 1) as f64 - r) * inv;
+                if d > 0.0 {
+                    t1[k][c] = mn(up, 1.0);
+                    t0[k][c + 1] = mx(down, 0.0);
+                } else {
+                    t0[k][c] = mx(up, 0.0);
+                    t1[k][c + 1] = mn(down, 1.0);
+                }
             }
         } else {
-            for c in 0..4 {
+            for c in 0..n[k] {
                 let f = (lo[k] + c as i64) as f64;
-                t0[k][c] = 0.0;
-                t1[k][c] = if a[k] >= f - r && a[k] <= f + 1.0 + r {
-                    1.0
-                } else {
-                    -1.0
-                };
-            }
-        }
-        for c in 0..4 {
-            if c >= n[k] {
-                t0[k][c] = 2.0;
-                t1[k][c] = -1.0;
+                if !(a[k] >= f - r && a[k] <= f + 1.0 + r) {
+                    t1[k][c] = -1.0;
+                }
             }
         }
     }
     // A cell is kept when the largest of its three lower bounds is at most the smallest upper
-    // bound (an empty interval fails by itself); the four z cells of a column at once.
+    // bound (an empty interval fails by itself).
     let mut mask = 0u64;
     for i in 0..n[0] {
         for j in 0..n[1] {
             let (y0, y1) = (mx(t0[1][j], t0[0][i]), mn(t1[1][j], t1[0][i]));
-            let mut bits = 0u64;
-            for k in 0..4 {
-                bits |= u64::from(mx(t0[2][k], y0) <= mn(t1[2][k], y1)) << k;
+            for k in 0..n[2] {
+                let keep = mx(t0[2][k], y0) <= mn(t1[2][k], y1);
+                mask |= u64::from(keep) << (16 * i + 4 * j + k);
             }
-            mask |= bits << (16 * i + 4 * j);
         }
     }
     mask

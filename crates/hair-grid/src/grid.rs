@@ -863,49 +863,50 @@ impl Grid {
     }
 
     /// Copies the section data into the pair search's order (by first cell, then by index; a
-    /// counting sort over the cells) and renumbers the entries.
+    /// counting sort over the cells) and renumbers the entries. On the dense path the sort and
+    /// the renumbering were done with the entries ([`Grid::sort_entries`]).
     fn pack(&mut self) {
         let n = self.len;
-        let n_cells = self.cell_keys.len();
-        let chunks = &self.chunks[..self.n_chunks];
-        let pk = &mut self.packed;
-        // Cell index of each section's first cell (`n_cells` for an empty cover).
-        pk.first.resize(n.max(pk.first.len()), 0);
-        let (dense, dense_cell, cell_keys) = (self.dense, &self.dense_cell, &self.cell_keys);
-        pk.first[..n]
-            .par_chunks_mut(CHUNK)
-            .zip(chunks.par_iter())
-            .for_each(|(first, ch)| {
-                for (l, f) in first.iter_mut().enumerate() {
-                    let (s, e) = (ch.start[l] as usize, ch.start[l + 1] as usize);
-                    *f = if s == e {
-                        n_cells as u32
-                    } else if dense {
-                        dense_cell[ch.dense[s] as usize]
-                    } else {
-                        cell_keys
-                            .binary_search(&ch.keys[s])
-                            .map_or(n_cells as u32, |c| c as u32)
-                    };
-                }
-            });
-        pk.counts.clear();
-        pk.counts.resize(n_cells + 2, 0);
-        for &f in &pk.first[..n] {
-            pk.counts[f as usize + 1] += 1;
-        }
-        for c in 1..pk.counts.len() {
-            pk.counts[c] += pk.counts[c - 1];
-        }
-        pk.order.resize(n, 0);
-        pk.rank.resize(n, 0);
-        for (i, &f) in pk.first[..n].iter().enumerate() {
-            let slot = &mut pk.counts[f as usize];
-            pk.order[*slot as usize] = i as u32;
-            pk.rank[i] = *slot;
-            *slot += 1;
+        if !self.dense {
+            let n_cells = self.cell_keys.len();
+            let chunks = &self.chunks[..self.n_chunks];
+            let pk = &mut self.packed;
+            // Cell index of each section's first cell (`n_cells` for an empty cover).
+            pk.first.resize(n.max(pk.first.len()), 0);
+            let cell_keys = &self.cell_keys;
+            pk.first[..n]
+                .par_chunks_mut(CHUNK)
+                .zip(chunks.par_iter())
+                .for_each(|(first, ch)| {
+                    for (l, f) in first.iter_mut().enumerate() {
+                        let (s, e) = (ch.start[l] as usize, ch.start[l + 1] as usize);
+                        *f = if s == e {
+                            n_cells as u32
+                        } else {
+                            cell_keys
+                                .binary_search(&ch.keys[s])
+                                .map_or(n_cells as u32, |c| c as u32)
+                        };
+                    }
+                });
+            self.rank_sections();
+            let pk = &mut self.packed;
+            let rank = &pk.rank;
+            let entries = self.entries;
+            if pk.items.len() < entries {
+                pk.items.resize(entries, 0);
+            }
+            pk.items[..entries]
+                .par_chunks_mut(1 << 14)
+                .zip(self.sorted_items[..entries].par_chunks(1 << 14))
+                .for_each(|(out, inp)| {
+                    for (o, &i) in out.iter_mut().zip(inp) {
+                        *o = rank[i as usize];
+                    }
+                });
         }
         // Gather the data in the new order.
+        let pk = &mut self.packed;
         pk.boxes.resize(n, PBox::default());
         pk.lines.resize(n, [0.0; 8]);
         let (recs, order) = (&self.recs, &pk.order);
@@ -925,20 +926,31 @@ impl Grid {
                     lines[k] = r.line;
                 }
             });
-        // Renumber the entries.
-        let rank = &pk.rank;
-        let entries = self.entries;
-        if pk.items.len() < entries {
-            pk.items.resize(entries, 0);
+    }
+
+    /// The pair search's order of the sections: by first cell (`packed.first`, a cell index,
+    /// `n_cells` for an empty cover), then by index; a sequential counting sort.
+    #[inline(never)]
+    fn rank_sections(&mut self) {
+        let n = self.len;
+        let n_cells = self.cell_keys.len();
+        let pk = &mut self.packed;
+        pk.counts.clear();
+        pk.counts.resize(n_cells + 2, 0);
+        for &f in &pk.first[..n] {
+            pk.counts[f as usize + 1] += 1;
         }
-        pk.items[..entries]
-            .par_chunks_mut(1 << 14)
-            .zip(self.sorted_items[..entries].par_chunks(1 << 14))
-            .for_each(|(out, inp)| {
-                for (o, &i) in out.iter_mut().zip(inp) {
-                    *o = rank[i as usize];
-                }
-            });
+        for c in 1..pk.counts.len() {
+            pk.counts[c] += pk.counts[c - 1];
+        }
+        pk.order.resize(n, 0);
+        pk.rank.resize(n, 0);
+        for (i, &f) in pk.first[..n].iter().enumerate() {
+            let slot = &mut pk.counts[f as usize];
+            pk.order[*slot as usize] = i as u32;
+            pk.rank[i] = *slot;
+            *slot += 1;
+        }
     }
 
     /// Sorts the entries by cell: a parallel counting sort over the dense box of the covers when
@@ -964,6 +976,7 @@ impl Grid {
         let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
         let dims = self.dims;
         if self.dense {
+            let n = self.len;
             let chunks = &mut self.chunks[..self.n_chunks];
             let nb = box_cells as usize;
             // Blocks of chunks, one per thread: each counts and places only its own entries.
@@ -982,41 +995,84 @@ impl Grid {
                 self.block_counts.resize_with(blocks, Vec::new);
             }
             let counts = &mut self.block_counts[..blocks];
+            // Each section's first cell, as a box index (`u32::MAX` for an empty cover), for
+            // the pair search's order below.
+            let pk = &mut self.packed;
+            pk.first.resize(n.max(pk.first.len()), 0);
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks_mut(per_block))
-                .for_each(|(count, chs)| {
+                .zip(pk.first[..n].par_chunks_mut(per_block * CHUNK))
+                .for_each(|((count, chs), first)| {
                     count.clear();
                     count.resize(nb, 0);
-                    for ch in chs {
+                    for (ch, first) in chs.iter_mut().zip(first.chunks_mut(CHUNK)) {
                         ch.dense.clear();
                         ch.dense.extend(ch.keys.iter().map(|&k| {
                             let d = dense_of(k, bo, dims) as u32;
                             count[d as usize] += 1;
                             d
                         }));
+                        for (f, w) in first.iter_mut().zip(ch.start.windows(2)) {
+                            *f = if w[0] == w[1] {
+                                u32::MAX
+                            } else {
+                                ch.dense[w[0] as usize]
+                            };
+                        }
                     }
                 });
-            let chunks = &self.chunks[..self.n_chunks];
             // Cell-major, block-minor exclusive prefix: each block's count becomes its cursor,
-            // and `prefix[k]` the end of cell k.
+            // and `prefix[k]` the end of cell k. The non-empty cells are listed in the same
+            // pass, their lattice coordinates stepped along with the box index.
             self.prefix.clear();
             self.prefix.resize(nb, 0);
+            self.dense_cell.resize(nb, 0);
             let mut run = 0u32;
+            let (mut x, mut y, mut z) = (0u64, 0u64, 0u64);
             for (d, end) in self.prefix.iter_mut().enumerate() {
+                let prev = run;
                 for count in counts.iter_mut() {
                     let c = count[d];
                     count[d] = run;
                     run += c;
                 }
                 *end = run;
+                self.dense_cell[d] = self.cell_keys.len() as u32;
+                if run > prev {
+                    self.cell_keys
+                        .push(((x + bo[0]) << 42) | ((y + bo[1]) << 21) | (z + bo[2]));
+                    self.cell_start.push(run);
+                }
+                z += 1;
+                if z == dims[2] {
+                    z = 0;
+                    y += 1;
+                    if y == dims[1] {
+                        y = 0;
+                        x += 1;
+                    }
+                }
             }
+            // The pair search's order, so that the copy below renumbers the entries.
+            let n_cells = self.cell_keys.len() as u32;
+            let dense_cell = &self.dense_cell;
+            for f in &mut self.packed.first[..n] {
+                *f = if *f == u32::MAX {
+                    n_cells
+                } else {
+                    dense_cell[*f as usize]
+                };
+            }
+            self.rank_sections();
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
-            // stores, plain moves on common targets), then one sequential copy.
+            // stores, plain moves on common targets), then one copy.
             if self.scatter.len() < 2 * entries {
                 self.scatter.resize_with(2 * entries, || AtomicU64::new(0));
             }
             let out = &self.scatter;
+            let chunks = &self.chunks[..self.n_chunks];
+            let counts = &mut self.block_counts[..blocks];
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks(per_block))
@@ -1038,36 +1094,29 @@ impl Grid {
                         }
                     }
                 });
+            let pk = &mut self.packed;
+            if pk.items.len() < entries {
+                pk.items.resize(entries, 0);
+            }
+            let rank = &pk.rank;
             self.sorted_items[..entries]
                 .par_chunks_mut(1 << 14)
                 .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
+                .zip(pk.items[..entries].par_chunks_mut(1 << 14))
                 .zip(out[..2 * entries].par_chunks(2 << 14))
-                .for_each(|((items, earlier), from)| {
-                    for ((item, earlier), f) in items
+                .for_each(|(((items, earlier), packed), from)| {
+                    for (((item, earlier), packed), f) in items
                         .iter_mut()
                         .zip(earlier.iter_mut())
+                        .zip(packed.iter_mut())
                         .zip(from.chunks_exact(2))
                     {
-                        *item = f[0].load(Relaxed) as u32;
+                        let i = f[0].load(Relaxed) as u32;
+                        *item = i;
+                        *packed = rank[i as usize];
                         *earlier = f[1].load(Relaxed);
                     }
                 });
-            // Non-empty cells.
-            let mut prev = 0u32;
-            self.dense_cell.resize(nb, 0);
-            for (d, &end) in self.prefix.iter().enumerate() {
-                self.dense_cell[d] = self.cell_keys.len() as u32;
-                if end > prev {
-                    let d = d as u64;
-                    let z = d % dims[2];
-                    let y = (d / dims[2]) % dims[1];
-                    let x = d / (dims[2] * dims[1]);
-                    self.cell_keys
-                        .push(((x + bo[0]) << 42) | ((y + bo[1]) << 21) | (z + bo[2]));
-                    self.cell_start.push(end);
-                    prev = end;
-                }
-            }
         } else {
             let chunks = &self.chunks[..self.n_chunks];
             self.prefix.clear();
