@@ -75,6 +75,15 @@ pub(crate) struct Rec {
     pub line: Line,
 }
 
+/// One entry in the scatter's output: its section and its earlier cells, side by side so that
+/// a write touches one cache line (relaxed atomic stores: plain moves on common targets).
+#[derive(Debug, Default)]
+#[repr(C, align(16))]
+struct Slot {
+    item: AtomicU64,
+    earlier: AtomicU64,
+}
+
 /// One chunk of sections: their covers, item-major (the packed cell keys of each section,
 /// ascending), and for each (section, cell) entry the section's earlier cells as a bit set
 /// ([`crate::pairs::earlier_cells`]).
@@ -121,7 +130,7 @@ pub struct Grid {
     /// Dense path: the scatter's output before it is copied to `sorted_items` and
     /// `entry_earlier`: per entry, its section then its earlier cells, side by side so that a
     /// write touches one cache line.
-    scatter: Vec<AtomicU64>,
+    scatter: Vec<Slot>,
     /// Dense path: index among the non-empty cells of each box cell.
     dense_cell: Vec<u32>,
     /// Section data in the pair search's order.
@@ -175,17 +184,18 @@ fn invalid_field(shape: &Ssv) -> Option<&'static str> {
     }
 }
 
-/// A core length in integer nanometres, `(l.min(1e9) * 1e9).round()`, 0 when not finite.
-/// `round` is a libm call on the baseline target; for `0 <= x < 2^63` it is `trunc(x)`, plus
-/// one when the fraction `x - trunc(x)` (exact) is at least 1/2, which is the same value.
+/// A core length in integer nanometres, `(l.min(1e9) * 1e9).round() as u64` (0 when not
+/// finite or negative). `round` is a libm call on the baseline target, and float to `u64`
+/// conversions take several instructions: for `0 <= x <= 1e18` the value is `trunc(x)` (an `i64`
+/// conversion), plus one when the fraction `x - trunc(x)` (exact) is at least 1/2.
 #[inline]
 fn nanometres(l: f64) -> u64 {
-    if !l.is_finite() {
+    if !(l > 0.0 && l < f64::INFINITY) {
         return 0;
     }
-    let x = l.min(1e9) * 1e9;
-    let t = x as u64;
-    t + u64::from(x - t as f64 >= 0.5)
+    let x = if l < 1e9 { l } else { 1e9 } * 1e9;
+    let t = x as i64;
+    (t + i64::from(x - t as f64 >= 0.5)) as u64
 }
 
 /// Core length used for the default cell size.
@@ -1067,10 +1077,10 @@ impl Grid {
             self.rank_sections();
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
             // stores, plain moves on common targets), then one copy.
-            if self.scatter.len() < 2 * entries {
-                self.scatter.resize_with(2 * entries, || AtomicU64::new(0));
+            if self.scatter.len() < entries {
+                self.scatter.resize_with(entries, Slot::default);
             }
-            let out = &self.scatter;
+            let out = &self.scatter[..entries];
             let chunks = &self.chunks[..self.n_chunks];
             let counts = &mut self.block_counts[..blocks];
             counts
@@ -1080,15 +1090,14 @@ impl Grid {
                 .for_each(|(b, (cursor, chs))| {
                     for (j, ch) in chs.iter().enumerate() {
                         let first = (b * per_block + j) * CHUNK;
-                        for l in 0..ch.start.len() - 1 {
-                            let range = ch.start[l] as usize..ch.start[l + 1] as usize;
-                            for (&d, &earlier) in
-                                ch.dense[range.clone()].iter().zip(&ch.earlier[range])
-                            {
-                                let c = &mut cursor[d as usize];
-                                let at = 2 * *c as usize;
-                                out[at].store((first + l) as u64, Relaxed);
-                                out[at + 1].store(earlier, Relaxed);
+                        let (dense, earlier) = (&ch.dense[..], &ch.earlier[..ch.dense.len()]);
+                        for (l, w) in ch.start.windows(2).enumerate() {
+                            let item = (first + l) as u64;
+                            for e in w[0] as usize..w[1] as usize {
+                                let c = &mut cursor[dense[e] as usize];
+                                let slot = &out[*c as usize];
+                                slot.item.store(item, Relaxed);
+                                slot.earlier.store(earlier[e], Relaxed);
                                 *c += 1;
                             }
                         }
@@ -1103,18 +1112,18 @@ impl Grid {
                 .par_chunks_mut(1 << 14)
                 .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
                 .zip(pk.items[..entries].par_chunks_mut(1 << 14))
-                .zip(out[..2 * entries].par_chunks(2 << 14))
+                .zip(out.par_chunks(1 << 14))
                 .for_each(|(((items, earlier), packed), from)| {
                     for (((item, earlier), packed), f) in items
                         .iter_mut()
                         .zip(earlier.iter_mut())
                         .zip(packed.iter_mut())
-                        .zip(from.chunks_exact(2))
+                        .zip(from)
                     {
-                        let i = f[0].load(Relaxed) as u32;
+                        let i = f.item.load(Relaxed) as u32;
                         *item = i;
                         *packed = rank[i as usize];
-                        *earlier = f[1].load(Relaxed);
+                        *earlier = f.earlier.load(Relaxed);
                     }
                 });
         } else {
