@@ -75,8 +75,10 @@ pub(crate) struct Rec {
     pub line: Line,
 }
 
-/// One entry in the scatter's output: its section and its earlier cells, side by side so that
-/// a write touches one cache line (relaxed atomic stores: plain moves on common targets).
+/// One entry in the scatter's output: its section (low half) and the section's rank in the pair
+/// search's order (high half), then its earlier cells, side by side so that a write touches one
+/// cache line (relaxed atomic stores: plain moves on common targets). The rank is looked up once
+/// per section here rather than once per entry in the copy.
 #[derive(Debug, Default)]
 #[repr(C, align(16))]
 struct Slot {
@@ -394,8 +396,10 @@ const MASK21: u64 = (1 << 21) - 1;
 /// Dense index in the box `(biased origin, dims)` of a packed key inside it.
 #[inline]
 fn dense_of(k: u64, bo: [u64; 3], dims: [u64; 3]) -> u64 {
-    (((k >> 42) - bo[0]) * dims[1] + (((k >> 21) & MASK21) - bo[1])) * dims[2]
-        + ((k & MASK21) - bo[2])
+    (((k >> 42).wrapping_sub(bo[0])).wrapping_mul(dims[1])
+        + (((k >> 21) & MASK21).wrapping_sub(bo[1])))
+    .wrapping_mul(dims[2])
+    .wrapping_add((k & MASK21).wrapping_sub(bo[2]))
 }
 
 /// Lattice coordinates of a packed key.
@@ -1009,6 +1013,8 @@ impl Grid {
             // the pair search's order below.
             let pk = &mut self.packed;
             pk.first.resize(n.max(pk.first.len()), 0);
+            let dyz = dims[1] * dims[2];
+            let d0 = dense_of(0, bo, dims).wrapping_neg();
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks_mut(per_block))
@@ -1017,9 +1023,14 @@ impl Grid {
                     count.clear();
                     count.resize(nb, 0);
                     for (ch, first) in chs.iter_mut().zip(first.chunks_mut(CHUNK)) {
+                        // The box index is linear in the key's three fields: no per-field
+                        // subtraction of the origin.
                         ch.dense.clear();
                         ch.dense.extend(ch.keys.iter().map(|&k| {
-                            let d = dense_of(k, bo, dims) as u32;
+                            let d = ((k >> 42) * dyz)
+                                .wrapping_add(((k >> 21) & MASK21) * dims[2])
+                                .wrapping_add(k & MASK21)
+                                .wrapping_sub(d0) as u32;
                             count[d as usize] += 1;
                             d
                         }));
@@ -1083,6 +1094,7 @@ impl Grid {
             let out = &self.scatter[..entries];
             let chunks = &self.chunks[..self.n_chunks];
             let counts = &mut self.block_counts[..blocks];
+            let rank = &self.packed.rank;
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks(per_block))
@@ -1092,7 +1104,7 @@ impl Grid {
                         let first = (b * per_block + j) * CHUNK;
                         let (dense, earlier) = (&ch.dense[..], &ch.earlier[..ch.dense.len()]);
                         for (l, w) in ch.start.windows(2).enumerate() {
-                            let item = (first + l) as u64;
+                            let item = (first + l) as u64 | u64::from(rank[first + l]) << 32;
                             for e in w[0] as usize..w[1] as usize {
                                 let c = &mut cursor[dense[e] as usize];
                                 let slot = &out[*c as usize];
@@ -1107,7 +1119,6 @@ impl Grid {
             if pk.items.len() < entries {
                 pk.items.resize(entries, 0);
             }
-            let rank = &pk.rank;
             self.sorted_items[..entries]
                 .par_chunks_mut(1 << 14)
                 .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
@@ -1120,9 +1131,9 @@ impl Grid {
                         .zip(packed.iter_mut())
                         .zip(from)
                     {
-                        let i = f.item.load(Relaxed) as u32;
-                        *item = i;
-                        *packed = rank[i as usize];
+                        let i = f.item.load(Relaxed);
+                        *item = i as u32;
+                        *packed = (i >> 32) as u32;
                         *earlier = f.earlier.load(Relaxed);
                     }
                 });
