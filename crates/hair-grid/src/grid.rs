@@ -365,6 +365,45 @@ const SHORT_KEY: [u64; 64] = {
     t
 };
 
+/// Covers within the 2 x 2 x 2 cells from the first cell of their range (most short covers):
+/// cell `(i, j, k)` is bit `4 i + 2 j + k` of a byte, and `EARLIER8[byte][bit]` is that cell's
+/// earlier-cell bit set (all such offsets lie inside the window).
+const EARLIER8: [[u64; 8]; 256] = {
+    let mut t = [[0u64; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut c = 0;
+        while c < 8 {
+            let mut bits = 0u64;
+            let mut p = 0;
+            while p < c {
+                if m & (1 << p) != 0 {
+                    let dx = (p >> 2) as i64 - (c >> 2) as i64;
+                    let dy = ((p >> 1) & 1) as i64 - ((c >> 1) & 1) as i64;
+                    let dz = (p & 1) as i64 - (c & 1) as i64;
+                    bits |= 1 << ((dx + 2) * 25 + (dy + 2) * 5 + (dz + 2));
+                }
+                p += 1;
+            }
+            t[m][c] = bits;
+            c += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// Packed-key offset of the cell `(i, j, k)` of a 2 x 2 x 2 cover, by its bit `4 i + 2 j + k`.
+const KEY8: [u64; 8] = {
+    let mut t = [0u64; 8];
+    let mut b = 0;
+    while b < 8 {
+        t[b] = (((b >> 2) as u64) << 42) | ((((b >> 1) & 1) as u64) << 21) | (b & 1) as u64;
+        b += 1;
+    }
+    t
+};
+
 /// Appends the keys of a cover given as a mask over the cells from `cl` (bit `16 i + 4 j + k`
 /// for cell `cl + (i, j, k)`, so that bit order is key order) and their earlier-cell bit sets,
 /// the same sets as [`crate::pairs::earlier_bits`] gives (an earlier cell `dx < -2` away along
@@ -372,6 +411,19 @@ const SHORT_KEY: [u64; 64] = {
 #[inline]
 fn push_mask(cl: [i64; 3], mut mask: u64, keys: &mut Vec<u64>, earlier: &mut Vec<u64>) {
     let base = pack_i64(cl);
+    // Bits 16 i + 4 j + k with i, j, k in {0, 1}: the byte of a 2 x 2 x 2 cover.
+    if mask & !0x0033_0033 == 0 {
+        let m8 = (mask & 0x3) | ((mask >> 2) & 0xc) | ((mask >> 12) & 0x30) | ((mask >> 14) & 0xc0);
+        let row = &EARLIER8[m8 as usize];
+        let mut rest = m8;
+        while rest != 0 {
+            let b = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            keys.push(base + KEY8[b & 7]);
+            earlier.push(row[b & 7]);
+        }
+        return;
+    }
     let mut prev = [0u16; SHORT];
     let mut m = 0;
     while mask != 0 {
