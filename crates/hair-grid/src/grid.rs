@@ -1097,33 +1097,38 @@ impl Grid {
                 });
             // Cell-major, block-minor exclusive prefix: each block's count becomes its cursor,
             // and `prefix[k]` the end of cell k. The non-empty cells are listed in the same
-            // pass, their lattice coordinates stepped along with the box index.
+            // pass, walking the box row by row.
             self.prefix.clear();
             self.prefix.resize(nb, 0);
             self.dense_cell.resize(nb, 0);
             let mut run = 0u32;
-            let (mut x, mut y, mut z) = (0u64, 0u64, 0u64);
-            for (d, end) in self.prefix.iter_mut().enumerate() {
-                let prev = run;
-                for count in counts.iter_mut() {
-                    let c = count[d];
-                    count[d] = run;
-                    run += c;
-                }
-                *end = run;
-                self.dense_cell[d] = self.cell_keys.len() as u32;
-                if run > prev {
-                    self.cell_keys
-                        .push(((x + bo[0]) << 42) | ((y + bo[1]) << 21) | (z + bo[2]));
-                    self.cell_start.push(run);
-                }
-                z += 1;
-                if z == dims[2] {
-                    z = 0;
-                    y += 1;
-                    if y == dims[1] {
-                        y = 0;
-                        x += 1;
+            let (prefix, dense_cell) = (&mut self.prefix[..nb], &mut self.dense_cell[..nb]);
+            let (cell_keys, cell_start) = (&mut self.cell_keys, &mut self.cell_start);
+            let mut d = 0;
+            for x in 0..dims[0] {
+                for y in 0..dims[1] {
+                    let row = ((x + bo[0]) << 42) | ((y + bo[1]) << 21) | bo[2];
+                    for z in 0..dims[2] {
+                        let prev = run;
+                        if let [count] = counts {
+                            // One block (one thread): no inner loop.
+                            let c = count[d];
+                            count[d] = run;
+                            run += c;
+                        } else {
+                            for count in counts.iter_mut() {
+                                let c = count[d];
+                                count[d] = run;
+                                run += c;
+                            }
+                        }
+                        prefix[d] = run;
+                        dense_cell[d] = cell_keys.len() as u32;
+                        if run > prev {
+                            cell_keys.push(row + z);
+                            cell_start.push(run);
+                        }
+                        d += 1;
                     }
                 }
             }
