@@ -1074,6 +1074,7 @@ impl Grid {
                 .for_each(|((count, chs), first)| {
                     count.clear();
                     count.resize(nb, 0);
+                    let count = &mut count[..];
                     for (ch, first) in chs.iter_mut().zip(first.chunks_mut(CHUNK)) {
                         // The box index is linear in the key's three fields: no per-field
                         // subtraction of the origin.
@@ -1157,16 +1158,21 @@ impl Grid {
                 .zip(chunks.par_chunks(per_block))
                 .enumerate()
                 .for_each(|(b, (cursor, chs))| {
+                    // A plain slice, so that its address stays in a register across the
+                    // stores.
+                    let cursor = &mut cursor[..];
                     for (j, ch) in chs.iter().enumerate() {
                         let first = (b * per_block + j) * CHUNK;
-                        let (dense, earlier) = (&ch.dense[..], &ch.earlier[..ch.dense.len()]);
                         for (l, w) in ch.start.windows(2).enumerate() {
                             let item = (first + l) as u64 | u64::from(rank[first + l]) << 32;
-                            for e in w[0] as usize..w[1] as usize {
-                                let c = &mut cursor[dense[e] as usize];
+                            let range = w[0] as usize..w[1] as usize;
+                            for (&d, &earlier) in
+                                ch.dense[range.clone()].iter().zip(&ch.earlier[range])
+                            {
+                                let c = &mut cursor[d as usize];
                                 let slot = &out[*c as usize];
                                 slot.item.store(item, Relaxed);
-                                slot.earlier.store(earlier[e], Relaxed);
+                                slot.earlier.store(earlier, Relaxed);
                                 *c += 1;
                             }
                         }
