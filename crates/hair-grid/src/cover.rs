@@ -135,6 +135,65 @@ pub(crate) fn short_segment(
     m
 }
 
+/// `max` and `min` by plain comparisons rather than `f64::max`: every value in the short covers
+/// is finite.
+#[inline(always)]
+fn mx(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
+#[inline(always)]
+fn mn(a: f64, b: f64) -> f64 {
+    if a < b { a } else { b }
+}
+
+/// [`short_mask`] for a range of at most 2 cells per axis (most short covers): the same bounds
+/// and tests, unrolled, with the intervals of each axis as `[t0, t1]` of its first cell then of
+/// its second (empty for an axis of one cell).
+#[inline(always)]
+fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
+    let axis = |k: usize| -> [f64; 4] {
+        if n[k] == 1 {
+            return [0.0, 1.0, 2.0, -1.0];
+        }
+        let d = b[k] - a[k];
+        if d.abs() > TINY {
+            let inv = 1.0 / d;
+            let base = lo[k] as f64 - a[k];
+            // `base + 0 + 1` is `base + 1`, also for `base = -0`.
+            let up = (base + 1.0 + r) * inv;
+            let down = (base + 1.0 - r) * inv;
+            if d > 0.0 {
+                [0.0, mn(up, 1.0), mx(down, 0.0), 1.0]
+            } else {
+                [mx(up, 0.0), 1.0, 0.0, mn(down, 1.0)]
+            }
+        } else {
+            let upper = |c: i64| {
+                let f = (lo[k] + c) as f64;
+                if a[k] >= f - r && a[k] <= f + 1.0 + r {
+                    1.0
+                } else {
+                    -1.0
+                }
+            };
+            [0.0, upper(0), 0.0, upper(1)]
+        }
+    };
+    let (x, y, z) = (axis(0), axis(1), axis(2));
+    let mut mask = 0u64;
+    for i in 0..2 {
+        for j in 0..2 {
+            let (y0, y1) = (mx(y[2 * j], x[2 * i]), mn(y[2 * j + 1], x[2 * i + 1]));
+            for k in 0..2 {
+                let keep = mx(z[2 * k], y0) <= mn(z[2 * k + 1], y1);
+                mask |= u64::from(keep) << (16 * i + 4 * j + k);
+            }
+        }
+    }
+    mask
+}
+
 /// The cells `lo + (i, j, k)`, `i < n[0]`, `j < n[1]`, `k < n[2]` (each `n` at most 4) that meet
 /// the segment `a`-`b` grown by a cube of half-side `r`, as bit `16 i + 4 j + k` of a mask (bit
 /// order is key order). A cell is kept when the parameter intervals of its three slabs, grown by
@@ -145,14 +204,8 @@ pub(crate) fn short_segment(
 /// `floor(max + r)` per axis), as [`crate::grid::cell_range`] gives.
 #[inline]
 pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
-    // Plain comparisons rather than `f64::max`: every value here is finite.
-    #[inline(always)]
-    fn mx(a: f64, b: f64) -> f64 {
-        if a > b { a } else { b }
-    }
-    #[inline(always)]
-    fn mn(a: f64, b: f64) -> f64 {
-        if a < b { a } else { b }
+    if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
+        return small_mask(a, b, r, lo, n);
     }
     // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
     // when lower > upper), clamped to [0, 1]. Along a segment that is not flat on that axis,
@@ -195,27 +248,6 @@ pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usi
     }
     // A cell is kept when the largest of its three lower bounds is at most the smallest upper
     // bound (an empty interval fails by itself).
-    if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
-        // Most short ranges: the eight cells unrolled, the second cell of a one-cell axis made
-        // empty.
-        for k in 0..3 {
-            if n[k] == 1 {
-                t0[k][1] = 2.0;
-                t1[k][1] = -1.0;
-            }
-        }
-        let mut mask = 0u64;
-        for i in 0..2 {
-            for j in 0..2 {
-                let (y0, y1) = (mx(t0[1][j], t0[0][i]), mn(t1[1][j], t1[0][i]));
-                for k in 0..2 {
-                    let keep = mx(t0[2][k], y0) <= mn(t1[2][k], y1);
-                    mask |= u64::from(keep) << (16 * i + 4 * j + k);
-                }
-            }
-        }
-        return mask;
-    }
     let mut mask = 0u64;
     for i in 0..n[0] {
         for j in 0..n[1] {
