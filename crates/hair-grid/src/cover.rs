@@ -149,9 +149,9 @@ fn mn(a: f64, b: f64) -> f64 {
 
 /// [`short_mask`] for a range of at most 2 cells per axis (most short covers): the same bounds
 /// and tests, unrolled, with the intervals of each axis as `[t0, t1]` of its first cell then of
-/// its second (empty for an axis of one cell).
+/// its second (empty for an axis of one cell). Cell `lo + (i, j, k)` is bit `4 i + 2 j + k`.
 #[inline(always)]
-fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
+pub(crate) fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
     let axis = |k: usize| -> [f64; 4] {
         if n[k] == 1 {
             return [0.0, 1.0, 2.0, -1.0];
@@ -187,7 +187,7 @@ fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> 
             let (y0, y1) = (mx(y[2 * j], x[2 * i]), mn(y[2 * j + 1], x[2 * i + 1]));
             for k in 0..2 {
                 let keep = mx(z[2 * k], y0) <= mn(z[2 * k + 1], y1);
-                mask |= u64::from(keep) << (16 * i + 4 * j + k);
+                mask |= u64::from(keep) << (4 * i + 2 * j + k);
             }
         }
     }
@@ -205,7 +205,9 @@ fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> 
 #[inline]
 pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
     if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
-        return small_mask(a, b, r, lo, n);
+        // Bit 4 i + 2 j + k to bit 16 i + 4 j + k.
+        let m = small_mask(a, b, r, lo, n);
+        return (m & 0x3) | ((m & 0xc) << 2) | ((m & 0x30) << 12) | ((m & 0xc0) << 14);
     }
     // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
     // when lower > upper), clamped to [0, 1]. Along a segment that is not flat on that axis,

@@ -315,7 +315,14 @@ fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64;
         n[k] = (ch[k] - cl[k] + 1) as usize;
     }
     let short = inside & (n[0] <= 4) & (n[1] <= 4) & (n[2] <= 4) && n[0] * n[1] * n[2] <= SHORT;
-    short.then(|| (cl, ch, cover::short_mask(va, vb, r, cl, n)))
+    short.then(|| {
+        let mask = if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
+            SMALL | cover::small_mask(va, vb, r, cl, n)
+        } else {
+            cover::short_mask(va, vb, r, cl, n)
+        };
+        (cl, ch, mask)
+    })
 }
 
 /// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
@@ -404,16 +411,21 @@ const KEY8: [u64; 8] = {
     t
 };
 
+/// Marks a cover mask given by [`cover::small_mask`] (a byte). Never a cell of a
+/// [`cover::short_mask`]: bit 63 is the cell `(3, 3, 3)` of a range of 64 cells, more than
+/// [`SHORT`].
+const SMALL: u64 = 1 << 63;
+
 /// Appends the keys of a cover given as a mask over the cells from `cl` (bit `16 i + 4 j + k`
-/// for cell `cl + (i, j, k)`, so that bit order is key order) and their earlier-cell bit sets,
+/// for cell `cl + (i, j, k)`, so that bit order is key order; or [`SMALL`] and the byte of a
+/// [`cover::small_mask`]) and their earlier-cell bit sets,
 /// the same sets as [`crate::pairs::earlier_bits`] gives (an earlier cell `dx < -2` away along
 /// x is `OUTSIDE` there too, only found without looking further back).
 #[inline]
 fn push_mask(cl: [i64; 3], mut mask: u64, keys: &mut Vec<u64>, earlier: &mut Vec<u64>) {
     let base = pack_i64(cl);
-    // Bits 16 i + 4 j + k with i, j, k in {0, 1}: the byte of a 2 x 2 x 2 cover.
-    if mask & !0x0033_0033 == 0 {
-        let m8 = (mask & 0x3) | ((mask >> 2) & 0xc) | ((mask >> 12) & 0x30) | ((mask >> 14) & 0xc0);
+    if mask & SMALL != 0 {
+        let m8 = mask & 0xff;
         let row = &EARLIER8[m8 as usize];
         let mut rest = m8;
         while rest != 0 {
@@ -799,7 +811,8 @@ impl Grid {
                     // limit is below the largest short cover.)
                     if let Ssv::Line(ln) = &s.shape
                         && let Some((cl, ch, mask)) = short_line(ln, inv, grow)
-                        && (limit >= SHORT as u64 || u64::from(mask.count_ones()) <= limit)
+                        && (limit >= SHORT as u64
+                            || u64::from((mask & !SMALL).count_ones()) <= limit)
                     {
                         shapes[l] = s.shape;
                         let (a, b) = ln.aabb();
