@@ -284,24 +284,19 @@ const SHORT: usize = 32;
 /// Every value is computed by the same expressions as [`core_in_cells`] and [`cell_range`].
 #[inline]
 fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64; 3], u64)> {
-    // `abs() < INFINITY` is false for infinities and NaN.
-    let fin = |v: f32| v.abs() < f32::INFINITY;
-    let ok = fin(l.a.x)
-        & fin(l.a.y)
-        & fin(l.a.z)
-        & fin(l.b.x)
-        & fin(l.b.y)
-        & fin(l.b.z)
-        & fin(l.radius)
-        & (l.radius >= 0.0);
-    if !ok {
+    // The shape is valid and inside the lattice when the radius is not negative and the ends,
+    // in cells and grown by `r`, lie in `[-2^20, 2^20)`: `floor(v) >= -2^20` is `v >= -2^20`,
+    // `floor(v) < 2^20` is `v < 2^20`, and any NaN or infinite coordinate or radius fails one
+    // of these comparisons (a NaN radius too). One test of six values instead of one per
+    // coordinate, then one per cell bound.
+    if l.radius < 0.0 {
         return None;
     }
     let (va, vb) = (cells_of(&l.a, inv), cells_of(&l.b, inv));
     let r = (f64::from(l.radius) + grow) * inv + EPS_CELLS;
-    let mut cl = [0i64; 3];
-    let mut ch = [0i64; 3];
-    let mut n = [0usize; 3];
+    let half = LATTICE_HALF as f64;
+    let mut lo = [0.0f64; 3];
+    let mut hi = [0.0f64; 3];
     let mut inside = true;
     for k in 0..3 {
         let (mn, mx) = if va[k] < vb[k] {
@@ -309,12 +304,21 @@ fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64;
         } else {
             (vb[k], va[k])
         };
-        cl[k] = cover::floor_i(mn - r);
-        ch[k] = cover::floor_i(mx + r);
-        inside &= (cl[k] >= -LATTICE_HALF) & (ch[k] < LATTICE_HALF);
+        (lo[k], hi[k]) = (mn - r, mx + r);
+        inside &= (lo[k] >= -half) & (hi[k] < half);
+    }
+    if !inside {
+        return None;
+    }
+    let mut cl = [0i64; 3];
+    let mut ch = [0i64; 3];
+    let mut n = [0usize; 3];
+    for k in 0..3 {
+        cl[k] = cover::floor_i(lo[k]);
+        ch[k] = cover::floor_i(hi[k]);
         n[k] = (ch[k] - cl[k] + 1) as usize;
     }
-    let short = inside & (n[0] <= 4) & (n[1] <= 4) & (n[2] <= 4) && n[0] * n[1] * n[2] <= SHORT;
+    let short = (n[0] <= 4) & (n[1] <= 4) & (n[2] <= 4) && n[0] * n[1] * n[2] <= SHORT;
     short.then(|| {
         let mask = if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
             SMALL | cover::small_mask(va, vb, r, cl, n)
@@ -1247,6 +1251,24 @@ impl Grid {
 mod tests {
     use super::*;
     use hair_ssv::Lss;
+
+    #[test]
+    fn short_lines_leave_bad_or_far_shapes_to_the_general_path() {
+        let p = |x: f32| Point::new(x, 0.5, 0.5);
+        let ok = Lss::new(p(0.2), p(0.7), 0.01);
+        assert!(short_line(&ok, 1.0, 0.0).is_some());
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 2e6, -2e6] {
+            assert!(short_line(&Lss::new(p(bad), p(0.7), 0.01), 1.0, 0.0).is_none());
+            assert!(short_line(&Lss::new(p(0.2), p(bad), 0.01), 1.0, 0.0).is_none());
+        }
+        for r in [f32::NAN, f32::INFINITY, -0.01] {
+            assert!(short_line(&Lss::new(p(0.2), p(0.7), r), 1.0, 0.0).is_none());
+        }
+        // The last cells inside the lattice, and one beyond.
+        let edge = LATTICE_HALF as f32 - 0.6;
+        assert!(short_line(&Lss::new(p(edge), p(edge + 0.2), 0.01), 1.0, 0.0).is_some());
+        assert!(short_line(&Lss::new(p(edge), p(edge + 0.7), 0.01), 1.0, 0.0).is_none());
+    }
 
     #[test]
     fn short_lines_give_the_keys_and_bit_sets_of_the_walk() {
