@@ -33,6 +33,18 @@ pub(crate) fn floor_i(v: f64) -> i64 {
     if (t as f64) > v { t - 1 } else { t }
 }
 
+/// `floor` of a value `|v| < 2^51` (finite), without the saturating float-to-integer conversion:
+/// adding 1.5 * 2^52 rounds `v` to the nearest integer `k` exactly (the sum's unit in the last
+/// place is 1) and leaves `k` in the low bits of the sum, so that the difference of the bit
+/// patterns is `k`; then one less when `k > v`. The same value as [`floor_i`] there.
+#[inline]
+pub(crate) fn floor_small(v: f64) -> i64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52
+    let sum = v + MAGIC;
+    let k = sum.to_bits() as i64 - MAGIC.to_bits() as i64;
+    k - i64::from(sum - MAGIC > v)
+}
+
 /// Direction components below this (in cells, over the whole segment) count as zero in the slab
 /// tests: the segment then strays from the tested line by at most this, far below the cover
 /// slack the callers add (1e-3 cell), and the reciprocal stays finite.
@@ -396,6 +408,36 @@ mod tests {
         assert!(cells.len() < 200, "{}", cells.len());
         assert!(cells.windows(2).all(|w| w[0] < w[1]));
         assert!(cells.contains(&[0, 0, 0]) && cells.contains(&[20, 20, 20]));
+    }
+
+    #[test]
+    fn floor_small_is_floor() {
+        let mut z = 3u64;
+        for n in 0..100_000 {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let u = (z >> 11) as f64 / (1u64 << 53) as f64;
+            let v = match n % 4 {
+                0 => (u - 0.5) * 4.2e6,
+                1 => ((u - 0.5) * 64.0).round() + [0.0, -1e-12, 1e-12, 0.5][n % 3],
+                2 => (u - 0.5) * 1e-6,
+                _ => (u - 0.5) * 2f64.powi(50),
+            };
+            assert_eq!(floor_small(v), floor_i(v), "{v}");
+        }
+        for v in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.5,
+            -2.5,
+            1048575.999999,
+            -1048576.0,
+        ] {
+            assert_eq!(floor_small(v), floor_i(v), "{v}");
+        }
     }
 
     #[test]

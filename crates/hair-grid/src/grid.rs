@@ -314,8 +314,8 @@ fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64;
     let mut ch = [0i64; 3];
     let mut n = [0usize; 3];
     for k in 0..3 {
-        cl[k] = cover::floor_i(lo[k]);
-        ch[k] = cover::floor_i(hi[k]);
+        cl[k] = cover::floor_small(lo[k]);
+        ch[k] = cover::floor_small(hi[k]);
         n[k] = (ch[k] - cl[k] + 1) as usize;
     }
     let short = (n[0] <= 4) & (n[1] <= 4) & (n[2] <= 4) && n[0] * n[1] * n[2] <= SHORT;
