@@ -69,35 +69,40 @@
 //! shared 2-core machine (load about 4), `build_ms` went from 86-104 ms to 63-95 ms and
 //! `pairs_ms` did not change.
 //!
-//! The rebuild then went from 496 M to 279 M instructions (one thread, `grid_profile` under
+//! The rebuild then went from 496 M to 256 M instructions (one thread, `grid_profile` under
 //! callgrind, half the difference of `build 3` and `build 1`; 496 M is the previous build
 //! measured the same way on this machine, the 455 M above an earlier measurement), with the
 //! same cells, entries and pairs in the same order (the three `grid_profile` hashes). A valid
 //! LSS whose cell range is short is covered as a bit mask of that range, not a list of cells:
-//! only the slab bounds between two cells of the range are computed (the outer bounds of the
-//! first and last cells lie beyond the segment's ends by at least `2 r / |d|` and clamp to
-//! exactly 0 and 1), a range of at most 2 cells per axis (most of them) is tested unrolled with
-//! its intervals in registers, and the keys and earlier-cell bit sets come from tables (by the
-//! cover's byte for a 2 x 2 x 2 range, else by the offset between two cells); every other
-//! section, and every error, takes the general path as before. The mean cell size is summed per
-//! chunk and rounded without the libm call. The count pass also reads each section's first
-//! cell, the prefix over the box lists the non-empty cells in the same walk, and the pair
-//! search's order is computed before the scatter, whose two-word slots carry each entry's
-//! section and rank (looked up once per section), so that the copy out of it also renumbers the
-//! entries (no separate pass). `grid_profile build 10` (min / median of the ten rebuilds), run
-//! alternately with the previous build on the shared 2-core machine: with 2 threads at load
-//! about 1.5, 30.5-31.4 / 31.6-32.6 ms before and 24.4-24.7 / 25.8-26.1 ms after; with one
-//! thread (`RAYON_NUM_THREADS=1`) at load about 2, 54.6-55.4 / 55.3-56.3 ms before and
-//! 42.2-43.1 / 42.9-44.0 ms after. The wall time falls less than the instructions: the scatter
-//! of the entries and the gather into the search order (random accesses over 14 and 19 MB)
-//! and the sequential ranking of the sections now take about a third of it on one thread.
+//! it is validated by one range test of its grown ends in cells (a NaN or infinite value, or a
+//! cell outside the lattice, fails it), floored without the saturating conversion, only the
+//! slab bounds between two cells of the range are computed (the outer bounds of the first and
+//! last cells lie beyond the segment's ends by at least `2 r / |d|` and clamp to exactly 0 and
+//! 1), a range of at most 2 cells per axis (most of them) is tested unrolled with its intervals
+//! in registers, and the keys and earlier-cell bit sets come from tables (by the cover's byte
+//! for a 2 x 2 x 2 range, else by the offset between two cells); every other section, and every
+//! error, takes the general path as before. The mean cell size is summed per chunk and rounded
+//! without the libm call. The count pass also reads each section's first cell, the prefix over
+//! the box lists the non-empty cells in the same walk, and the pair search's order is computed
+//! before the scatter, whose two-word slots carry each entry's section and rank (looked up once
+//! per section), so that the copy out of it also renumbers the entries (no separate pass).
+//! `grid_profile build 10` (min / median of the ten rebuilds), run alternately with the
+//! previous build on the shared 2-core machine (load average about 2.8, from another
+//! engineer's builds that came and went): with 2 threads, min 29.0-31.6 ms before and
+//! 21.2-23.9 ms after (medians 30.6-35.3 and 21.8-25.2 ms); with one thread
+//! (`RAYON_NUM_THREADS=1`), min 55.8-60.9 ms before and 41.0-43.5 ms after, and CPU time per
+//! rebuild (`perf stat -e task-clock`, `build 21` minus `build 1`) 56-57 ms before and 43-44 ms
+//! after. The wall time falls less than the instructions: the scatter of the entries and the
+//! gather into the search order (random accesses over 14 and 19 MB) and the sequential ranking
+//! of the sections now take about a third of it on one thread.
 //! Measured and dropped: a two-pass radix sort instead of the single counting scatter (more
 //! instructions and more simulated cache misses, no faster), a line-line distance bound before the
 //! exact test (hair is close to parallel, so it rejects too few candidates to pay for itself),
 //! and testing rows of boxes in groups of four instead of eight (more instructions); in the
 //! rebuild, appending a 2 x 2 x 2 cover's keys from a table of its cells with exact-size
-//! iterators (16 M more instructions than a loop over its bits) and keeping each chunk's box in
-//! locals (more spills, 2.5 M more).
+//! iterators (16 M more instructions than a loop over its bits), keeping each chunk's box in
+//! locals (more spills, 2.5 M more), and ranking the sections in parallel blocks (2 M more, and
+//! with 2 threads about 1 ms slower: the order then goes through a shared buffer).
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
