@@ -461,11 +461,13 @@ fn push_mask(cl: [i64; 3], mut mask: u64, keys: &mut Vec<u64>, earlier: &mut Vec
 const AXES: [char; 3] = ['x', 'y', 'z'];
 const MASK21: u64 = (1 << 21) - 1;
 
-/// Dense index in the box `(biased origin, dims)` of a packed key inside it.
+/// Dense index in the box `(biased origin, dims)` of a packed key inside it (wrapping: the
+/// count pass takes the negated index of key 0 as its offset).
 #[inline]
 fn dense_of(k: u64, bo: [u64; 3], dims: [u64; 3]) -> u64 {
-    (((k >> 42).wrapping_sub(bo[0])).wrapping_mul(dims[1])
-        + (((k >> 21) & MASK21).wrapping_sub(bo[1])))
+    (((k >> 42).wrapping_sub(bo[0]))
+        .wrapping_mul(dims[1])
+        .wrapping_add(((k >> 21) & MASK21).wrapping_sub(bo[1])))
     .wrapping_mul(dims[2])
     .wrapping_add((k & MASK21).wrapping_sub(bo[2]))
 }
