@@ -162,6 +162,7 @@ fn mn(a: f64, b: f64) -> f64 {
 /// [`short_mask`] for a range of at most 2 cells per axis (most short covers): the same bounds
 /// and tests, unrolled, with the intervals of each axis as `[t0, t1]` of its first cell then of
 /// its second (empty for an axis of one cell). Cell `lo + (i, j, k)` is bit `4 i + 2 j + k`.
+/// Each `n` is 1 or 2.
 #[inline(always)]
 pub(crate) fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
     let axis = |k: usize| -> [f64; 4] {
@@ -216,6 +217,9 @@ pub(crate) fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usi
 /// `floor(max + r)` per axis), as [`crate::grid::cell_range`] gives.
 #[inline]
 pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
+    if n.contains(&0) {
+        return 0;
+    }
     if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
         // Bit 4 i + 2 j + k to bit 16 i + 4 j + k.
         let m = small_mask(a, b, r, lo, n);
