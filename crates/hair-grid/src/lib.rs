@@ -69,7 +69,7 @@
 //! shared 2-core machine (load about 4), `build_ms` went from 86-104 ms to 63-95 ms and
 //! `pairs_ms` did not change.
 //!
-//! The rebuild then went from 496 M to 256 M instructions (one thread, `grid_profile` under
+//! The rebuild then went from 496 M to 260 M instructions (one thread, `grid_profile` under
 //! callgrind, half the difference of `build 3` and `build 1`; 496 M is the previous build
 //! measured the same way on this machine, the 455 M above an earlier measurement), with the
 //! same cells, entries and pairs in the same order (the three `grid_profile` hashes). A valid
@@ -87,12 +87,13 @@
 //! before the scatter, whose two-word slots carry each entry's section and rank (looked up once
 //! per section), so that the copy out of it also renumbers the entries (no separate pass).
 //! `grid_profile build 10` (min / median of the ten rebuilds), run alternately with the
-//! previous build on the shared 2-core machine (load average about 2.8, from another
-//! engineer's builds that came and went): with 2 threads, min 29.0-31.6 ms before and
-//! 21.2-23.9 ms after (medians 30.6-35.3 and 21.8-25.2 ms); with one thread
-//! (`RAYON_NUM_THREADS=1`), min 55.8-60.9 ms before and 41.0-43.5 ms after, and CPU time per
-//! rebuild (`perf stat -e task-clock`, `build 21` minus `build 1`) 56-57 ms before and 43-44 ms
-//! after. The wall time falls less than the instructions: the scatter of the entries and the
+//! previous build on the shared 2-core machine (load average 1.5-1.8, from another engineer's
+//! builds that came and went): with 2 threads, min 29.2-30.3 ms before and 21.1-23.3 ms after
+//! (medians 29.9-33.3 and 21.4-28.8 ms); with one thread (`RAYON_NUM_THREADS=1`), min
+//! 55.9-59.8 ms before and 40.2-44.7 ms after, and CPU time per rebuild (`perf stat -e
+//! task-clock`, `build 21` minus `build 1`) 56-72 ms before and 43-44 ms after (across runs
+//! under that changing load).
+//! The wall time falls less than the instructions: the scatter of the entries and the
 //! gather into the search order (random accesses over 14 and 19 MB) and the sequential ranking
 //! of the sections now take about a third of it on one thread.
 //! Measured and dropped: a two-pass radix sort instead of the single counting scatter (more
