@@ -33,6 +33,18 @@ pub(crate) fn floor_i(v: f64) -> i64 {
     if (t as f64) > v { t - 1 } else { t }
 }
 
+/// `floor` of a value `|v| < 2^51` (finite), without the saturating float-to-integer conversion:
+/// adding 1.5 * 2^52 rounds `v` to the nearest integer `k` exactly (the sum's unit in the last
+/// place is 1) and leaves `k` in the low bits of the sum, so that the difference of the bit
+/// patterns is `k`; then one less when `k > v`. The same value as [`floor_i`] there.
+#[inline]
+pub(crate) fn floor_small(v: f64) -> i64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52
+    let sum = v + MAGIC;
+    let k = sum.to_bits() as i64 - MAGIC.to_bits() as i64;
+    k - i64::from(sum - MAGIC > v)
+}
+
 /// Direction components below this (in cells, over the whole segment) count as zero in the slab
 /// tests: the segment then strays from the tested line by at most this, far below the cover
 /// slack the callers add (1e-3 cell), and the reciprocal stays finite.
@@ -114,9 +126,7 @@ pub(crate) fn segment(
 
 /// The cells of the range `lo..=hi` (at most `out.len()` of them) that meet the segment
 /// `a`-`b` grown by a cube of half-side `r`, in increasing `(x, y, z)` order; returns their
-/// number. A cell is kept when the parameter intervals of its three slabs, grown by `r`,
-/// intersect within `[0, 1]`: the same cells as [`segment`] up to rounding (both hold every
-/// cell the grown segment meets), for a segment whose cell range is small.
+/// number. `lo..=hi` must be the segment's cell range grown by `r`; see [`short_mask`].
 pub(crate) fn short_segment(
     a: [f64; 3],
     b: [f64; 3],
@@ -125,61 +135,148 @@ pub(crate) fn short_segment(
     hi: [i64; 3],
     out: &mut [[i64; 3]],
 ) -> usize {
-    // Plain comparisons rather than `f64::max`: every value here is finite.
-    #[inline(always)]
-    fn mx(a: f64, b: f64) -> f64 {
-        if a > b { a } else { b }
-    }
-    #[inline(always)]
-    fn mn(a: f64, b: f64) -> f64 {
-        if a < b { a } else { b }
-    }
-    // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
-    // when lower > upper).
-    let mut t0 = [[0.0f64; 4]; 3];
-    let mut t1 = [[-1.0f64; 4]; 3];
     let n = [0, 1, 2].map(|k| (hi[k] - lo[k] + 1).clamp(0, 4) as usize);
-    for k in 0..3 {
+    let mut mask = short_mask(a, b, r, lo, n);
+    let mut m = 0;
+    while mask != 0 && m < out.len() {
+        let t = i64::from(mask.trailing_zeros());
+        mask &= mask - 1;
+        out[m] = [lo[0] + (t >> 4), lo[1] + ((t >> 2) & 3), lo[2] + (t & 3)];
+        m += 1;
+    }
+    m
+}
+
+/// `max` and `min` by plain comparisons rather than `f64::max`: every value in the short covers
+/// is finite.
+#[inline(always)]
+fn mx(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
+#[inline(always)]
+fn mn(a: f64, b: f64) -> f64 {
+    if a < b { a } else { b }
+}
+
+/// [`short_mask`] for a range of at most 2 cells per axis (most short covers): the same bounds
+/// and tests, unrolled, with the intervals of each axis as `[t0, t1]` of its first cell then of
+/// its second (empty for an axis of one cell). Cell `lo + (i, j, k)` is bit `4 i + 2 j + k`.
+/// Each `n` is 1 or 2.
+#[inline(always)]
+pub(crate) fn small_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
+    let axis = |k: usize| -> [f64; 4] {
+        if n[k] == 1 {
+            return [0.0, 1.0, 2.0, -1.0];
+        }
         let d = b[k] - a[k];
         if d.abs() > TINY {
             let inv = 1.0 / d;
             let base = lo[k] as f64 - a[k];
-            for c in 0..n[k] {
-                let f = base + c as f64;
-                let (s0, s1) = ((f - r) * inv, (f + 1.0 + r) * inv);
-                let (s0, s1) = if s0 > s1 { (s1, s0) } else { (s0, s1) };
-                t0[k][c] = mx(s0, 0.0);
-                t1[k][c] = mn(s1, 1.0);
+            // `base + 0 + 1` is `base + 1`, also for `base = -0`.
+            let up = (base + 1.0 + r) * inv;
+            let down = (base + 1.0 - r) * inv;
+            if d > 0.0 {
+                [0.0, mn(up, 1.0), mx(down, 0.0), 1.0]
+            } else {
+                [mx(up, 0.0), 1.0, 0.0, mn(down, 1.0)]
+            }
+        } else {
+            let upper = |c: i64| {
+                let f = (lo[k] + c) as f64;
+                if a[k] >= f - r && a[k] <= f + 1.0 + r {
+                    1.0
+                } else {
+                    -1.0
+                }
+            };
+            [0.0, upper(0), 0.0, upper(1)]
+        }
+    };
+    let (x, y, z) = (axis(0), axis(1), axis(2));
+    let mut mask = 0u64;
+    for i in 0..2 {
+        for j in 0..2 {
+            let (y0, y1) = (mx(y[2 * j], x[2 * i]), mn(y[2 * j + 1], x[2 * i + 1]));
+            for k in 0..2 {
+                let keep = mx(z[2 * k], y0) <= mn(z[2 * k + 1], y1);
+                mask |= u64::from(keep) << (4 * i + 2 * j + k);
+            }
+        }
+    }
+    mask
+}
+
+/// The cells `lo + (i, j, k)`, `i < n[0]`, `j < n[1]`, `k < n[2]` (each `n` at most 4) that meet
+/// the segment `a`-`b` grown by a cube of half-side `r`, as bit `16 i + 4 j + k` of a mask (bit
+/// order is key order). A cell is kept when the parameter intervals of its three slabs, grown by
+/// `r`, intersect within `[0, 1]`: the same cells as [`segment`] up to rounding (both hold every
+/// cell the grown segment meets), for a segment whose cell range is small. No list is built, so
+/// that the caller can derive keys and earlier-cell bit sets from the mask directly. `lo` and
+/// `lo + n - 1` must be the segment's cell range grown by `r` (`floor(min - r)`,
+/// `floor(max + r)` per axis), as [`crate::grid::cell_range`] gives.
+#[inline]
+pub(crate) fn short_mask(a: [f64; 3], b: [f64; 3], r: f64, lo: [i64; 3], n: [usize; 3]) -> u64 {
+    if n.contains(&0) {
+        return 0;
+    }
+    if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
+        // Bit 4 i + 2 j + k to bit 16 i + 4 j + k.
+        let m = small_mask(a, b, r, lo, n);
+        return (m & 0x3) | ((m & 0xc) << 2) | ((m & 0x30) << 12) | ((m & 0xc0) << 14);
+    }
+    // Per axis and per cell of the range, the parameter interval inside its grown slab (empty
+    // when lower > upper), clamped to [0, 1]. Along a segment that is not flat on that axis,
+    // the slabs are crossed in order, and the first cell's interval starts at the segment's
+    // start and the last one's ends at its end: the range was rounded outwards from the ends
+    // grown by `r >= 0.001` cell, so that these bounds are beyond [0, 1] by at least `2 r / |d|`
+    // and clamp to exactly 0 and 1. Only the bounds between two cells of the range are
+    // computed, by the same expressions as the general test (`f = lo - a + c`, `(f - r) / d`,
+    // `(f + 1 + r) / d`): none for an axis of one cell.
+    let mut t0 = [[0.0f64; 4]; 3];
+    let mut t1 = [[1.0f64; 4]; 3];
+    for k in 0..3 {
+        if n[k] <= 1 {
+            continue;
+        }
+        let d = b[k] - a[k];
+        if d.abs() > TINY {
+            let inv = 1.0 / d;
+            let base = lo[k] as f64 - a[k];
+            for c in 0..n[k] - 1 {
+                // Upper slab bound of cell c, lower slab bound of cell c + 1.
+                let up = (base + c as f64 + 1.0 + r) * inv;
+                let down = (base + (c + 1) as f64 - r) * inv;
+                if d > 0.0 {
+                    t1[k][c] = mn(up, 1.0);
+                    t0[k][c + 1] = mx(down, 0.0);
+                } else {
+                    t0[k][c] = mx(up, 0.0);
+                    t1[k][c + 1] = mn(down, 1.0);
+                }
             }
         } else {
             for c in 0..n[k] {
                 let f = (lo[k] + c as i64) as f64;
-                if a[k] >= f - r && a[k] <= f + 1.0 + r {
-                    t1[k][c] = 1.0;
+                if !(a[k] >= f - r && a[k] <= f + 1.0 + r) {
+                    t1[k][c] = -1.0;
                 }
             }
         }
     }
-    let mut m = 0;
+    // A cell is kept when the largest of its three lower bounds is at most the smallest upper
+    // bound (an empty interval fails by itself).
+    let mut mask = 0u64;
     for i in 0..n[0] {
-        let (x0, x1) = (t0[0][i], t1[0][i]);
-        if x0 > x1 {
-            continue;
-        }
         for j in 0..n[1] {
-            let (y0, y1) = (mx(t0[1][j], x0), mn(t1[1][j], x1));
-            if y0 > y1 {
-                continue;
-            }
+            let (y0, y1) = (mx(t0[1][j], t0[0][i]), mn(t1[1][j], t1[0][i]));
             for k in 0..n[2] {
-                if mx(t0[2][k], y0) <= mn(t1[2][k], y1) && m < out.len() {
-                    out[m] = [lo[0] + i as i64, lo[1] + j as i64, lo[2] + k as i64];
-                    m += 1;
-                }
+                let keep = mx(t0[2][k], y0) <= mn(t1[2][k], y1);
+                mask |= u64::from(keep) << (16 * i + 4 * j + k);
             }
         }
     }
-    m
+    mask
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -315,6 +412,36 @@ mod tests {
         assert!(cells.len() < 200, "{}", cells.len());
         assert!(cells.windows(2).all(|w| w[0] < w[1]));
         assert!(cells.contains(&[0, 0, 0]) && cells.contains(&[20, 20, 20]));
+    }
+
+    #[test]
+    fn floor_small_is_floor() {
+        let mut z = 3u64;
+        for n in 0..100_000 {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            let u = (z >> 11) as f64 / (1u64 << 53) as f64;
+            let v = match n % 4 {
+                0 => (u - 0.5) * 4.2e6,
+                1 => ((u - 0.5) * 64.0).round() + [0.0, -1e-12, 1e-12, 0.5][n % 3],
+                2 => (u - 0.5) * 1e-6,
+                _ => (u - 0.5) * 2f64.powi(50),
+            };
+            assert_eq!(floor_small(v), floor_i(v), "{v}");
+        }
+        for v in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.5,
+            -2.5,
+            1048575.999999,
+            -1048576.0,
+        ] {
+            assert_eq!(floor_small(v), floor_i(v), "{v}");
+        }
     }
 
     #[test]

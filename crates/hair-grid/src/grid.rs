@@ -75,6 +75,17 @@ pub(crate) struct Rec {
     pub line: Line,
 }
 
+/// One entry in the scatter's output: its section (low half) and the section's rank in the pair
+/// search's order (high half), then its earlier cells, side by side so that a write touches one
+/// cache line (relaxed atomic stores: plain moves on common targets). The rank is looked up once
+/// per section here rather than once per entry in the copy.
+#[derive(Debug, Default)]
+#[repr(C, align(16))]
+struct Slot {
+    item: AtomicU64,
+    earlier: AtomicU64,
+}
+
 /// One chunk of sections: their covers, item-major (the packed cell keys of each section,
 /// ascending), and for each (section, cell) entry the section's earlier cells as a bit set
 /// ([`crate::pairs::earlier_cells`]).
@@ -121,7 +132,7 @@ pub struct Grid {
     /// Dense path: the scatter's output before it is copied to `sorted_items` and
     /// `entry_earlier`: per entry, its section then its earlier cells, side by side so that a
     /// write touches one cache line.
-    scatter: Vec<AtomicU64>,
+    scatter: Vec<Slot>,
     /// Dense path: index among the non-empty cells of each box cell.
     dense_cell: Vec<u32>,
     /// Section data in the pair search's order.
@@ -175,7 +186,22 @@ fn invalid_field(shape: &Ssv) -> Option<&'static str> {
     }
 }
 
+/// A core length in integer nanometres, `(l.min(1e9) * 1e9).round() as u64` (0 when not
+/// finite or negative). `round` is a libm call on the baseline target, and float to `u64`
+/// conversions take several instructions: for `0 <= x <= 1e18` the value is `trunc(x)` (an `i64`
+/// conversion), plus one when the fraction `x - trunc(x)` (exact) is at least 1/2.
+#[inline]
+fn nanometres(l: f64) -> u64 {
+    if !(l > 0.0 && l < f64::INFINITY) {
+        return 0;
+    }
+    let x = if l < 1e9 { l } else { 1e9 } * 1e9;
+    let t = x as i64;
+    (t + i64::from(x - t as f64 >= 0.5)) as u64
+}
+
 /// Core length used for the default cell size.
+#[inline]
 fn core_length(shape: &Ssv) -> f64 {
     match shape {
         Ssv::Point(_) => 0.0,
@@ -252,14 +278,198 @@ pub(crate) fn walk_core(
 /// array; the others by the slab walk.
 const SHORT: usize = 32;
 
+/// The cell range and cover mask ([`cover::short_mask`]) of a valid LSS whose cell range is
+/// short (as in the general path), or `None` for any other LSS (not finite, negative radius,
+/// outside the lattice, a longer range): the general path then covers it or reports the error.
+/// Every value is computed by the same expressions as [`core_in_cells`] and [`cell_range`].
+#[inline]
+fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64; 3], u64)> {
+    // The shape is valid and inside the lattice when the radius is not negative and the ends,
+    // in cells and grown by `r`, lie in `[-2^20, 2^20)`: `floor(v) >= -2^20` is `v >= -2^20`,
+    // `floor(v) < 2^20` is `v < 2^20`, and any NaN or infinite coordinate or radius fails one
+    // of these comparisons (a NaN radius too). One test of six values instead of one per
+    // coordinate, then one per cell bound.
+    if l.radius < 0.0 {
+        return None;
+    }
+    let (va, vb) = (cells_of(&l.a, inv), cells_of(&l.b, inv));
+    let r = (f64::from(l.radius) + grow) * inv + EPS_CELLS;
+    let half = LATTICE_HALF as f64;
+    let mut lo = [0.0f64; 3];
+    let mut hi = [0.0f64; 3];
+    let mut inside = true;
+    for k in 0..3 {
+        let (mn, mx) = if va[k] < vb[k] {
+            (va[k], vb[k])
+        } else {
+            (vb[k], va[k])
+        };
+        (lo[k], hi[k]) = (mn - r, mx + r);
+        inside &= (lo[k] >= -half) & (hi[k] < half);
+    }
+    if !inside {
+        return None;
+    }
+    let mut cl = [0i64; 3];
+    let mut ch = [0i64; 3];
+    let mut n = [0usize; 3];
+    for k in 0..3 {
+        cl[k] = cover::floor_small(lo[k]);
+        ch[k] = cover::floor_small(hi[k]);
+        n[k] = (ch[k] - cl[k] + 1) as usize;
+    }
+    let short = (n[0] <= 4) & (n[1] <= 4) & (n[2] <= 4) && n[0] * n[1] * n[2] <= SHORT;
+    short.then(|| {
+        let mask = if n[0] <= 2 && n[1] <= 2 && n[2] <= 2 {
+            SMALL | cover::small_mask(va, vb, r, cl, n)
+        } else {
+            cover::short_mask(va, vb, r, cl, n)
+        };
+        (cl, ch, mask)
+    })
+}
+
+/// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
+/// ([`crate::pairs::earlier_bits`]): `25 (dx + 2) + 5 (dy + 2) + (dz + 2)` inside the 5 x 5 x 5
+/// window (`dx >= -2`, `|dy|, |dz| <= 2`), else `OUTSIDE`. Indexed by `49 dx + 7 dy + dz + 171`
+/// (unique for such offsets), so that an offset is one subtraction of two cell codes
+/// ([`SHORT_CODE`]) and one load.
+const OFFSET_BIT: [u64; 343] = {
+    let mut t = [0u64; 343];
+    let mut i = 0;
+    while i < 343 {
+        let (dx, dy, dz) = (i as i64 / 49 - 3, (i as i64 / 7) % 7 - 3, i as i64 % 7 - 3);
+        // Offsets not before the cell in key order are unused.
+        let before = dx < 0 || (dx == 0 && (dy < 0 || (dy == 0 && dz < 0)));
+        t[i] = if !before {
+            0
+        } else if dx < -2 || dy < -2 || dy > 2 || dz < -2 || dz > 2 {
+            crate::pairs::OUTSIDE
+        } else {
+            1 << ((dx + 2) * 25 + (dy + 2) * 5 + (dz + 2))
+        };
+        i += 1;
+    }
+    t
+};
+
+/// Code `49 i + 7 j + k` of the cell `(i, j, k)` of a short range, by its mask bit
+/// `16 i + 4 j + k`.
+const SHORT_CODE: [u16; 64] = {
+    let mut t = [0u16; 64];
+    let mut b = 0;
+    while b < 64 {
+        t[b] = (49 * (b >> 4) + 7 * ((b >> 2) & 3) + (b & 3)) as u16;
+        b += 1;
+    }
+    t
+};
+
+/// Packed-key offset of the cell `(i, j, k)` of a short range from its first cell, by mask bit.
+const SHORT_KEY: [u64; 64] = {
+    let mut t = [0u64; 64];
+    let mut b = 0;
+    while b < 64 {
+        t[b] = (((b >> 4) as u64) << 42) | ((((b >> 2) & 3) as u64) << 21) | (b & 3) as u64;
+        b += 1;
+    }
+    t
+};
+
+/// Covers within the 2 x 2 x 2 cells from the first cell of their range (most short covers):
+/// cell `(i, j, k)` is bit `4 i + 2 j + k` of a byte, and `EARLIER8[byte][bit]` is that cell's
+/// earlier-cell bit set (all such offsets lie inside the window).
+const EARLIER8: [[u64; 8]; 256] = {
+    let mut t = [[0u64; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut c = 0;
+        while c < 8 {
+            let mut bits = 0u64;
+            let mut p = 0;
+            while p < c {
+                if m & (1 << p) != 0 {
+                    let dx = (p >> 2) as i64 - (c >> 2) as i64;
+                    let dy = ((p >> 1) & 1) as i64 - ((c >> 1) & 1) as i64;
+                    let dz = (p & 1) as i64 - (c & 1) as i64;
+                    bits |= 1 << ((dx + 2) * 25 + (dy + 2) * 5 + (dz + 2));
+                }
+                p += 1;
+            }
+            t[m][c] = bits;
+            c += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// Packed-key offset of the cell `(i, j, k)` of a 2 x 2 x 2 cover, by its bit `4 i + 2 j + k`.
+const KEY8: [u64; 8] = {
+    let mut t = [0u64; 8];
+    let mut b = 0;
+    while b < 8 {
+        t[b] = (((b >> 2) as u64) << 42) | ((((b >> 1) & 1) as u64) << 21) | (b & 1) as u64;
+        b += 1;
+    }
+    t
+};
+
+/// Marks a cover mask given by [`cover::small_mask`] (a byte). Never a cell of a
+/// [`cover::short_mask`]: bit 63 is the cell `(3, 3, 3)` of a range of 64 cells, more than
+/// [`SHORT`].
+const SMALL: u64 = 1 << 63;
+
+/// Appends the keys of a cover given as a mask over the cells from `cl` (bit `16 i + 4 j + k`
+/// for cell `cl + (i, j, k)`, so that bit order is key order; or [`SMALL`] and the byte of a
+/// [`cover::small_mask`]) and their earlier-cell bit sets,
+/// the same sets as [`crate::pairs::earlier_bits`] gives (an earlier cell `dx < -2` away along
+/// x is `OUTSIDE` there too, only found without looking further back).
+#[inline]
+fn push_mask(cl: [i64; 3], mut mask: u64, keys: &mut Vec<u64>, earlier: &mut Vec<u64>) {
+    let base = pack_i64(cl);
+    if mask & SMALL != 0 {
+        let m8 = mask & 0xff;
+        let row = &EARLIER8[m8 as usize];
+        let mut rest = m8;
+        while rest != 0 {
+            let b = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            keys.push(base + KEY8[b & 7]);
+            earlier.push(row[b & 7]);
+        }
+        return;
+    }
+    let mut prev = [0u16; SHORT];
+    let mut m = 0;
+    while mask != 0 {
+        let t = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        keys.push(base + SHORT_KEY[t]);
+        // 171 + code(p) - code(t) >= 0: the offset index of p from t.
+        let c = 171 - SHORT_CODE[t] as usize;
+        let mut bits = 0u64;
+        for &p in &prev[..m] {
+            bits |= OFFSET_BIT[c + p as usize];
+        }
+        earlier.push(bits);
+        prev[m & (SHORT - 1)] = SHORT_CODE[t];
+        m += 1;
+    }
+}
+
 const AXES: [char; 3] = ['x', 'y', 'z'];
 const MASK21: u64 = (1 << 21) - 1;
 
-/// Dense index in the box `(biased origin, dims)` of a packed key inside it.
+/// Dense index in the box `(biased origin, dims)` of a packed key inside it (wrapping: the
+/// count pass takes the negated index of key 0 as its offset).
 #[inline]
 fn dense_of(k: u64, bo: [u64; 3], dims: [u64; 3]) -> u64 {
-    (((k >> 42) - bo[0]) * dims[1] + (((k >> 21) & MASK21) - bo[1])) * dims[2]
-        + ((k & MASK21) - bo[2])
+    (((k >> 42).wrapping_sub(bo[0]))
+        .wrapping_mul(dims[1])
+        .wrapping_add(((k >> 21) & MASK21).wrapping_sub(bo[1])))
+    .wrapping_mul(dims[2])
+    .wrapping_add((k & MASK21).wrapping_sub(bo[2]))
 }
 
 /// Lattice coordinates of a packed key.
@@ -515,15 +725,13 @@ impl Grid {
                 if sections.is_empty() {
                     1.0
                 } else {
+                    // Per chunk, a plain loop (no per-section closure calls from rayon).
                     let total: u64 = sections
-                        .par_iter()
-                        .map(|s| {
-                            let l = core_length(&s.shape);
-                            if l.is_finite() {
-                                (l.min(1e9) * 1e9).round() as u64
-                            } else {
-                                0
-                            }
+                        .par_chunks(CHUNK)
+                        .map(|c| {
+                            c.iter()
+                                .map(|s| nanometres(core_length(&s.shape)))
+                                .sum::<u64>()
                         })
                         .sum();
                     let mean = (total as f64 * 1e-9 / sections.len() as f64) as Real;
@@ -600,6 +808,40 @@ impl Grid {
                     let index = ci * CHUNK + l;
                     if error.is_some() {
                         break;
+                    }
+                    // Nearly every hair section is a valid LSS with a small cell range: its cover
+                    // comes as a mask, from which the keys and earlier-cell bit sets follow
+                    // without a list of cells. Anything else, including every error, takes the
+                    // general path below.
+                    // (No popcount on the baseline target: the cells are counted only when the
+                    // limit is below the largest short cover.)
+                    if let Ssv::Line(ln) = &s.shape
+                        && let Some((cl, ch, mask)) = short_line(ln, inv, grow)
+                        && (limit >= SHORT as u64
+                            || u64::from((mask & !SMALL).count_ones()) <= limit)
+                    {
+                        shapes[l] = s.shape;
+                        let (a, b) = ln.aabb();
+                        recs[l] = Rec {
+                            aabb: [
+                                a.x - slack,
+                                a.y - slack,
+                                a.z - slack,
+                                b.x + slack,
+                                b.y + slack,
+                                b.z + slack,
+                            ],
+                            skeleton: s.skeleton,
+                            segment: s.segment,
+                            line: line_of(&s.shape),
+                        };
+                        for k in 0..3 {
+                            lo[k] = lo[k].min(cl[k]);
+                            hi[k] = hi[k].max(ch[k]);
+                        }
+                        push_mask(cl, mask, keys, earlier);
+                        start.push(keys.len() as u32);
+                        continue;
                     }
                     if let Some(field) = invalid_field(&s.shape) {
                         *error = Some(GridError::InvalidShape {
@@ -706,49 +948,50 @@ impl Grid {
     }
 
     /// Copies the section data into the pair search's order (by first cell, then by index; a
-    /// counting sort over the cells) and renumbers the entries.
+    /// counting sort over the cells) and renumbers the entries. On the dense path the sort and
+    /// the renumbering were done with the entries ([`Grid::sort_entries`]).
     fn pack(&mut self) {
         let n = self.len;
-        let n_cells = self.cell_keys.len();
-        let chunks = &self.chunks[..self.n_chunks];
-        let pk = &mut self.packed;
-        // Cell index of each section's first cell (`n_cells` for an empty cover).
-        pk.first.resize(n.max(pk.first.len()), 0);
-        let (dense, dense_cell, cell_keys) = (self.dense, &self.dense_cell, &self.cell_keys);
-        pk.first[..n]
-            .par_chunks_mut(CHUNK)
-            .zip(chunks.par_iter())
-            .for_each(|(first, ch)| {
-                for (l, f) in first.iter_mut().enumerate() {
-                    let (s, e) = (ch.start[l] as usize, ch.start[l + 1] as usize);
-                    *f = if s == e {
-                        n_cells as u32
-                    } else if dense {
-                        dense_cell[ch.dense[s] as usize]
-                    } else {
-                        cell_keys
-                            .binary_search(&ch.keys[s])
-                            .map_or(n_cells as u32, |c| c as u32)
-                    };
-                }
-            });
-        pk.counts.clear();
-        pk.counts.resize(n_cells + 2, 0);
-        for &f in &pk.first[..n] {
-            pk.counts[f as usize + 1] += 1;
-        }
-        for c in 1..pk.counts.len() {
-            pk.counts[c] += pk.counts[c - 1];
-        }
-        pk.order.resize(n, 0);
-        pk.rank.resize(n, 0);
-        for (i, &f) in pk.first[..n].iter().enumerate() {
-            let slot = &mut pk.counts[f as usize];
-            pk.order[*slot as usize] = i as u32;
-            pk.rank[i] = *slot;
-            *slot += 1;
+        if !self.dense {
+            let n_cells = self.cell_keys.len();
+            let chunks = &self.chunks[..self.n_chunks];
+            let pk = &mut self.packed;
+            // Cell index of each section's first cell (`n_cells` for an empty cover).
+            pk.first.resize(n.max(pk.first.len()), 0);
+            let cell_keys = &self.cell_keys;
+            pk.first[..n]
+                .par_chunks_mut(CHUNK)
+                .zip(chunks.par_iter())
+                .for_each(|(first, ch)| {
+                    for (l, f) in first.iter_mut().enumerate() {
+                        let (s, e) = (ch.start[l] as usize, ch.start[l + 1] as usize);
+                        *f = if s == e {
+                            n_cells as u32
+                        } else {
+                            cell_keys
+                                .binary_search(&ch.keys[s])
+                                .map_or(n_cells as u32, |c| c as u32)
+                        };
+                    }
+                });
+            self.rank_sections();
+            let pk = &mut self.packed;
+            let rank = &pk.rank;
+            let entries = self.entries;
+            if pk.items.len() < entries {
+                pk.items.resize(entries, 0);
+            }
+            pk.items[..entries]
+                .par_chunks_mut(1 << 14)
+                .zip(self.sorted_items[..entries].par_chunks(1 << 14))
+                .for_each(|(out, inp)| {
+                    for (o, &i) in out.iter_mut().zip(inp) {
+                        *o = rank[i as usize];
+                    }
+                });
         }
         // Gather the data in the new order.
+        let pk = &mut self.packed;
         pk.boxes.resize(n, PBox::default());
         pk.lines.resize(n, [0.0; 8]);
         let (recs, order) = (&self.recs, &pk.order);
@@ -768,20 +1011,31 @@ impl Grid {
                     lines[k] = r.line;
                 }
             });
-        // Renumber the entries.
-        let rank = &pk.rank;
-        let entries = self.entries;
-        if pk.items.len() < entries {
-            pk.items.resize(entries, 0);
+    }
+
+    /// The pair search's order of the sections: by first cell (`packed.first`, a cell index,
+    /// `n_cells` for an empty cover), then by index; a sequential counting sort.
+    #[inline(never)]
+    fn rank_sections(&mut self) {
+        let n = self.len;
+        let n_cells = self.cell_keys.len();
+        let pk = &mut self.packed;
+        pk.counts.clear();
+        pk.counts.resize(n_cells + 2, 0);
+        for &f in &pk.first[..n] {
+            pk.counts[f as usize + 1] += 1;
         }
-        pk.items[..entries]
-            .par_chunks_mut(1 << 14)
-            .zip(self.sorted_items[..entries].par_chunks(1 << 14))
-            .for_each(|(out, inp)| {
-                for (o, &i) in out.iter_mut().zip(inp) {
-                    *o = rank[i as usize];
-                }
-            });
+        for c in 1..pk.counts.len() {
+            pk.counts[c] += pk.counts[c - 1];
+        }
+        pk.order.resize(n, 0);
+        pk.rank.resize(n, 0);
+        for (i, &f) in pk.first[..n].iter().enumerate() {
+            let slot = &mut pk.counts[f as usize];
+            pk.order[*slot as usize] = i as u32;
+            pk.rank[i] = *slot;
+            *slot += 1;
+        }
     }
 
     /// Sorts the entries by cell: a parallel counting sort over the dense box of the covers when
@@ -807,6 +1061,7 @@ impl Grid {
         let bo = [0, 1, 2].map(|k| (self.origin[k] + LATTICE_HALF) as u64);
         let dims = self.dims;
         if self.dense {
+            let n = self.len;
             let chunks = &mut self.chunks[..self.n_chunks];
             let nb = box_cells as usize;
             // Blocks of chunks, one per thread: each counts and places only its own entries.
@@ -825,92 +1080,145 @@ impl Grid {
                 self.block_counts.resize_with(blocks, Vec::new);
             }
             let counts = &mut self.block_counts[..blocks];
+            // Each section's first cell, as a box index (`u32::MAX` for an empty cover), for
+            // the pair search's order below.
+            let pk = &mut self.packed;
+            pk.first.resize(n.max(pk.first.len()), 0);
+            let dyz = dims[1] * dims[2];
+            let d0 = dense_of(0, bo, dims).wrapping_neg();
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks_mut(per_block))
-                .for_each(|(count, chs)| {
+                .zip(pk.first[..n].par_chunks_mut(per_block * CHUNK))
+                .for_each(|((count, chs), first)| {
                     count.clear();
                     count.resize(nb, 0);
-                    for ch in chs {
+                    let count = &mut count[..];
+                    for (ch, first) in chs.iter_mut().zip(first.chunks_mut(CHUNK)) {
+                        // The box index is linear in the key's three fields: no per-field
+                        // subtraction of the origin.
                         ch.dense.clear();
                         ch.dense.extend(ch.keys.iter().map(|&k| {
-                            let d = dense_of(k, bo, dims) as u32;
+                            let d = ((k >> 42) * dyz)
+                                .wrapping_add(((k >> 21) & MASK21) * dims[2])
+                                .wrapping_add(k & MASK21)
+                                .wrapping_sub(d0) as u32;
                             count[d as usize] += 1;
                             d
                         }));
+                        for (f, w) in first.iter_mut().zip(ch.start.windows(2)) {
+                            *f = if w[0] == w[1] {
+                                u32::MAX
+                            } else {
+                                ch.dense[w[0] as usize]
+                            };
+                        }
                     }
                 });
-            let chunks = &self.chunks[..self.n_chunks];
             // Cell-major, block-minor exclusive prefix: each block's count becomes its cursor,
-            // and `prefix[k]` the end of cell k.
+            // and `prefix[k]` the end of cell k. The non-empty cells are listed in the same
+            // pass, walking the box row by row.
             self.prefix.clear();
             self.prefix.resize(nb, 0);
+            self.dense_cell.resize(nb, 0);
             let mut run = 0u32;
-            for (d, end) in self.prefix.iter_mut().enumerate() {
-                for count in counts.iter_mut() {
-                    let c = count[d];
-                    count[d] = run;
-                    run += c;
+            let (prefix, dense_cell) = (&mut self.prefix[..nb], &mut self.dense_cell[..nb]);
+            let (cell_keys, cell_start) = (&mut self.cell_keys, &mut self.cell_start);
+            let mut d = 0;
+            for x in 0..dims[0] {
+                for y in 0..dims[1] {
+                    let row = ((x + bo[0]) << 42) | ((y + bo[1]) << 21) | bo[2];
+                    for z in 0..dims[2] {
+                        let prev = run;
+                        if let [count] = counts {
+                            // One block (one thread): no inner loop.
+                            let c = count[d];
+                            count[d] = run;
+                            run += c;
+                        } else {
+                            for count in counts.iter_mut() {
+                                let c = count[d];
+                                count[d] = run;
+                                run += c;
+                            }
+                        }
+                        prefix[d] = run;
+                        dense_cell[d] = cell_keys.len() as u32;
+                        if run > prev {
+                            cell_keys.push(row + z);
+                            cell_start.push(run);
+                        }
+                        d += 1;
+                    }
                 }
-                *end = run;
             }
+            // The pair search's order, so that the copy below renumbers the entries.
+            let n_cells = self.cell_keys.len() as u32;
+            let dense_cell = &self.dense_cell;
+            for f in &mut self.packed.first[..n] {
+                *f = if *f == u32::MAX {
+                    n_cells
+                } else {
+                    dense_cell[*f as usize]
+                };
+            }
+            self.rank_sections();
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
-            // stores, plain moves on common targets), then one sequential copy.
-            if self.scatter.len() < 2 * entries {
-                self.scatter.resize_with(2 * entries, || AtomicU64::new(0));
+            // stores, plain moves on common targets), then one copy.
+            if self.scatter.len() < entries {
+                self.scatter.resize_with(entries, Slot::default);
             }
-            let out = &self.scatter;
+            let out = &self.scatter[..entries];
+            let chunks = &self.chunks[..self.n_chunks];
+            let counts = &mut self.block_counts[..blocks];
+            let rank = &self.packed.rank;
             counts
                 .par_iter_mut()
                 .zip(chunks.par_chunks(per_block))
                 .enumerate()
                 .for_each(|(b, (cursor, chs))| {
+                    // A plain slice, so that its address stays in a register across the
+                    // stores.
+                    let cursor = &mut cursor[..];
                     for (j, ch) in chs.iter().enumerate() {
                         let first = (b * per_block + j) * CHUNK;
-                        for l in 0..ch.start.len() - 1 {
-                            let range = ch.start[l] as usize..ch.start[l + 1] as usize;
+                        for (l, w) in ch.start.windows(2).enumerate() {
+                            let item = (first + l) as u64 | u64::from(rank[first + l]) << 32;
+                            let range = w[0] as usize..w[1] as usize;
                             for (&d, &earlier) in
                                 ch.dense[range.clone()].iter().zip(&ch.earlier[range])
                             {
                                 let c = &mut cursor[d as usize];
-                                let at = 2 * *c as usize;
-                                out[at].store((first + l) as u64, Relaxed);
-                                out[at + 1].store(earlier, Relaxed);
+                                let slot = &out[*c as usize];
+                                slot.item.store(item, Relaxed);
+                                slot.earlier.store(earlier, Relaxed);
                                 *c += 1;
                             }
                         }
                     }
                 });
+            let pk = &mut self.packed;
+            if pk.items.len() < entries {
+                pk.items.resize(entries, 0);
+            }
             self.sorted_items[..entries]
                 .par_chunks_mut(1 << 14)
                 .zip(self.entry_earlier[..entries].par_chunks_mut(1 << 14))
-                .zip(out[..2 * entries].par_chunks(2 << 14))
-                .for_each(|((items, earlier), from)| {
-                    for ((item, earlier), f) in items
+                .zip(pk.items[..entries].par_chunks_mut(1 << 14))
+                .zip(out.par_chunks(1 << 14))
+                .for_each(|(((items, earlier), packed), from)| {
+                    for (((item, earlier), packed), f) in items
                         .iter_mut()
                         .zip(earlier.iter_mut())
-                        .zip(from.chunks_exact(2))
+                        .zip(packed.iter_mut())
+                        .zip(from)
                     {
-                        *item = f[0].load(Relaxed) as u32;
-                        *earlier = f[1].load(Relaxed);
+                        let i = f.item.load(Relaxed);
+                        *item = i as u32;
+                        *packed = (i >> 32) as u32;
+                        *earlier = f.earlier.load(Relaxed);
                     }
                 });
-            // Non-empty cells.
-            let mut prev = 0u32;
-            self.dense_cell.resize(nb, 0);
-            for (d, &end) in self.prefix.iter().enumerate() {
-                self.dense_cell[d] = self.cell_keys.len() as u32;
-                if end > prev {
-                    let d = d as u64;
-                    let z = d % dims[2];
-                    let y = (d / dims[2]) % dims[1];
-                    let x = d / (dims[2] * dims[1]);
-                    self.cell_keys
-                        .push(((x + bo[0]) << 42) | ((y + bo[1]) << 21) | (z + bo[2]));
-                    self.cell_start.push(end);
-                    prev = end;
-                }
-            }
         } else {
             let chunks = &self.chunks[..self.n_chunks];
             self.prefix.clear();
@@ -938,5 +1246,71 @@ impl Grid {
                 self.cell_start.push(entries as u32);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hair_ssv::Lss;
+
+    #[test]
+    fn short_lines_leave_bad_or_far_shapes_to_the_general_path() {
+        let p = |x: f32| Point::new(x, 0.5, 0.5);
+        let ok = Lss::new(p(0.2), p(0.7), 0.01);
+        assert!(short_line(&ok, 1.0, 0.0).is_some());
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 2e6, -2e6] {
+            assert!(short_line(&Lss::new(p(bad), p(0.7), 0.01), 1.0, 0.0).is_none());
+            assert!(short_line(&Lss::new(p(0.2), p(bad), 0.01), 1.0, 0.0).is_none());
+        }
+        for r in [f32::NAN, f32::INFINITY, -0.01] {
+            assert!(short_line(&Lss::new(p(0.2), p(0.7), r), 1.0, 0.0).is_none());
+        }
+        // The last cells inside the lattice, and one beyond.
+        let edge = LATTICE_HALF as f32 - 0.6;
+        assert!(short_line(&Lss::new(p(edge), p(edge + 0.2), 0.01), 1.0, 0.0).is_some());
+        assert!(short_line(&Lss::new(p(edge), p(edge + 0.7), 0.01), 1.0, 0.0).is_none());
+    }
+
+    #[test]
+    fn short_lines_give_the_keys_and_bit_sets_of_the_walk() {
+        // Seeded segments of about one cell, some along a lattice axis, at several radii.
+        let mut z = 11u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut tested = 0;
+        for n in 0..20_000 {
+            let a = Point::new(unit() * 8.0 - 4.0, unit() * 8.0 - 4.0, unit() * 8.0 - 4.0);
+            let mut b = Point::new(a.x + unit() * 2.0 - 1.0, a.y + unit() - 0.5, a.z + unit());
+            if n % 5 == 0 {
+                b[n % 3] = a[n % 3];
+            }
+            let l = Lss::new(a, b, unit() * 0.3);
+            let (inv, grow) = (1.0 + f64::from(unit()), f64::from(unit()) * 0.01);
+            let Some((cl, _, mask)) = short_line(&l, inv, grow) else {
+                continue;
+            };
+            let (mut keys, mut bits) = (Vec::new(), Vec::new());
+            push_mask(cl, mask, &mut keys, &mut bits);
+            let (v, m, r) = core_in_cells(&Ssv::Line(l), inv, grow);
+            let mut walk = Vec::new();
+            walk_core(
+                &v[..m],
+                r,
+                &CellBox::ALL,
+                u64::MAX,
+                &mut Vec::new(),
+                &mut |c| walk.push(pack_i64(c)),
+            )
+            .unwrap();
+            let mut walk_bits = Vec::new();
+            crate::pairs::earlier_cells(&walk, &mut walk_bits);
+            assert_eq!(keys, walk, "{l:?}");
+            assert_eq!(bits, walk_bits, "{l:?}");
+            tested += 1;
+        }
+        assert!(tested > 10_000, "{tested}");
     }
 }

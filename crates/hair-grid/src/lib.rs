@@ -23,9 +23,10 @@
 //! or for a segment whose cell range is small, at most 4 x 4 x 4 and 32 cells, a test of each
 //! cell of that range, which gives the same cells), sorts the (cell, section) entries by a
 //! parallel counting sort over the box of the covers (each entry's index in that box is
-//! computed once, then reused by the scatter and the copy below), then
+//! computed once, then reused by the scatter), then
 //! copies the data the pair search needs into its own order, sections sorted by their first cell
-//! (a second counting sort). That copy is what makes the search fast: walking the cells in key
+//! (a second counting sort, done before the scatter so that the entries are renumbered as they
+//! are copied out of it). That copy is what makes the search fast: walking the cells in key
 //! order then reads a sliding window of nearby memory instead of one cache miss per entry, as the
 //! caller's strand order would give.
 //!
@@ -72,6 +73,34 @@
 //! shared 2-core machine (load about 4), `build_ms` went from 86-104 ms to 63-95 ms and
 //! `pairs_ms` did not change.
 //!
+//! The rebuild then went from 496 M to 260 M instructions (one thread, `grid_profile` under
+//! callgrind, half the difference of `build 3` and `build 1`; 496 M is the previous build
+//! measured the same way on this machine, the 455 M above an earlier measurement), with the
+//! same cells, entries and pairs in the same order (the three `grid_profile` hashes). A valid
+//! LSS whose cell range is short is covered as a bit mask of that range, not a list of cells:
+//! it is validated by one range test of its grown ends in cells (a NaN or infinite value, or a
+//! cell outside the lattice, fails it), floored without the saturating conversion, only the
+//! slab bounds between two cells of the range are computed (the outer bounds of the first and
+//! last cells lie beyond the segment's ends by at least `2 r / |d|` and clamp to exactly 0 and
+//! 1), a range of at most 2 cells per axis (most of them) is tested unrolled with its intervals
+//! in registers, and the keys and earlier-cell bit sets come from tables (by the cover's byte
+//! for a 2 x 2 x 2 range, else by the offset between two cells); every other section, and every
+//! error, takes the general path as before. The mean cell size is summed per chunk and rounded
+//! without the libm call. The count pass also reads each section's first cell, the prefix over
+//! the box lists the non-empty cells in the same walk, and the pair search's order is computed
+//! before the scatter, whose two-word slots carry each entry's section and rank (looked up once
+//! per section), so that the copy out of it also renumbers the entries (no separate pass).
+//! `grid_profile build 10` (min / median of the ten rebuilds), run alternately with the
+//! previous build on the shared 2-core machine (load average 1.5-1.8, from another engineer's
+//! builds that came and went): with 2 threads, min 29.2-30.3 ms before and 21.1-23.3 ms after
+//! (medians 29.9-33.3 and 21.4-28.8 ms); with one thread (`RAYON_NUM_THREADS=1`), min
+//! 55.9-59.8 ms before and 40.2-44.7 ms after, and CPU time per rebuild (`perf stat -e
+//! task-clock`, `build 21` minus `build 1`) 56-72 ms before and 43-44 ms after (across runs
+//! under that changing load).
+//! The wall time falls less than the instructions: the scatter of the entries and the
+//! gather into the search order (random accesses over 14 and 19 MB) and the sequential ranking
+//! of the sections now take about a third of it on one thread.
+//!
 //! The pair search then went from 657 M to 430 M instructions (one thread, `grid_profile pairs`,
 //! half the difference of 1 and 3 repeats under callgrind) and from 75 ms to 49 ms on one thread
 //! (fastest of 10, `RAYON_NUM_THREADS=1 grid_profile pairs 10`, with a build running on the other
@@ -89,7 +118,11 @@
 //! (505 M instead of 436 M instructions), testing eight later sections against each earlier one
 //! in turn instead of rows (1.6 times slower: a branch per group of eight on whether any box hit
 //! is taken about as often as not), and smaller cells (0.5 to 0.8 cm: fewer box tests, but
-//! both the rebuild and the search slower).
+//! both the rebuild and the search slower); in the rebuild, appending a 2 x 2 x 2 cover's keys
+//! from a table of its cells with exact-size iterators (16 M more instructions than a loop over
+//! its bits), keeping each chunk's box in locals (more spills, 2.5 M more), and ranking the
+//! sections in parallel blocks (2 M more, and with 2 threads about 1 ms slower: the order then
+//! goes through a shared buffer).
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are

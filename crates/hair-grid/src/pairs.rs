@@ -657,7 +657,7 @@ fn has_avx2() -> bool {
 /// (dz + 2)`, one of bits 0 to 61 since key order is lexicographic.
 const WINDOW: u64 = (1 << 62) - 1;
 /// Set when some earlier cell lies outside that window.
-const OUTSIDE: u64 = 1 << 63;
+pub(crate) const OUTSIDE: u64 = 1 << 63;
 /// Set (with every other bit) when the cover is too long to be described.
 const UNKNOWN: u64 = 1 << 62;
 
