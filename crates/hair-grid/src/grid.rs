@@ -365,16 +365,21 @@ const SHORT_CODE: [u16; 64] = {
     t
 };
 
-/// Packed-key offset of the cell `(i, j, k)` of a short range from its first cell, by mask bit.
-const SHORT_KEY: [u64; 64] = {
-    let mut t = [0u64; 64];
+/// Packed-key offsets from the first cell of a range `side` cells wide along each axis, by the
+/// bit `side² i + side j + k` of the cell `(i, j, k)`.
+const fn key_offsets<const N: usize>(side: usize) -> [u64; N] {
+    let mut t = [0u64; N];
     let mut b = 0;
-    while b < 64 {
-        t[b] = (((b >> 4) as u64) << 42) | ((((b >> 2) & 3) as u64) << 21) | (b & 3) as u64;
+    while b < N {
+        let (i, j, k) = (b / (side * side), (b / side) % side, b % side);
+        t[b] = ((i as u64) << 42) | ((j as u64) << 21) | k as u64;
         b += 1;
     }
     t
-};
+}
+
+/// Packed-key offset of the cell `(i, j, k)` of a short range from its first cell, by mask bit.
+const SHORT_KEY: [u64; 64] = key_offsets(4);
 
 /// Covers within the 2 x 2 x 2 cells from the first cell of their range (most short covers):
 /// cell `(i, j, k)` is bit `4 i + 2 j + k` of a byte, and `EARLIER8[byte][bit]` is that cell's
@@ -405,15 +410,7 @@ const EARLIER8: [[u64; 8]; 256] = {
 };
 
 /// Packed-key offset of the cell `(i, j, k)` of a 2 x 2 x 2 cover, by its bit `4 i + 2 j + k`.
-const KEY8: [u64; 8] = {
-    let mut t = [0u64; 8];
-    let mut b = 0;
-    while b < 8 {
-        t[b] = (((b >> 2) as u64) << 42) | ((((b >> 1) & 1) as u64) << 21) | (b & 1) as u64;
-        b += 1;
-    }
-    t
-};
+const KEY8: [u64; 8] = key_offsets(2);
 
 /// Marks a cover mask given by [`cover::small_mask`] (a byte). Never a cell of a
 /// [`cover::short_mask`]: bit 63 is the cell `(3, 3, 3)` of a range of 64 cells, more than
