@@ -75,6 +75,26 @@ pub(crate) struct Rec {
     pub line: Line,
 }
 
+impl Rec {
+    /// The record of section `s` whose shape has the bounding box `(a, b)`, grown by `slack`.
+    #[inline(always)]
+    fn of(s: &Section, (a, b): (Point, Point), slack: Real) -> Self {
+        Self {
+            aabb: [
+                a.x - slack,
+                a.y - slack,
+                a.z - slack,
+                b.x + slack,
+                b.y + slack,
+                b.z + slack,
+            ],
+            skeleton: s.skeleton,
+            segment: s.segment,
+            line: line_of(&s.shape),
+        }
+    }
+}
+
 /// One entry in the scatter's output: its section (low half) and the section's rank in the pair
 /// search's order (high half), then its earlier cells, side by side so that a write touches one
 /// cache line (relaxed atomic stores: plain moves on common targets). The rank is looked up once
@@ -818,20 +838,7 @@ impl Grid {
                             || u64::from((mask & !SMALL).count_ones()) <= limit)
                     {
                         shapes[l] = s.shape;
-                        let (a, b) = ln.aabb();
-                        recs[l] = Rec {
-                            aabb: [
-                                a.x - slack,
-                                a.y - slack,
-                                a.z - slack,
-                                b.x + slack,
-                                b.y + slack,
-                                b.z + slack,
-                            ],
-                            skeleton: s.skeleton,
-                            segment: s.segment,
-                            line: line_of(&s.shape),
-                        };
+                        recs[l] = Rec::of(s, ln.aabb(), slack);
                         for k in 0..3 {
                             lo[k] = lo[k].min(cl[k]);
                             hi[k] = hi[k].max(ch[k]);
@@ -849,21 +856,7 @@ impl Grid {
                         break;
                     }
                     shapes[l] = s.shape;
-                    let (a, b) = s.shape.aabb();
-                    let rec = &mut recs[l];
-                    *rec = Rec {
-                        aabb: [
-                            a.x - slack,
-                            a.y - slack,
-                            a.z - slack,
-                            b.x + slack,
-                            b.y + slack,
-                            b.z + slack,
-                        ],
-                        skeleton: s.skeleton,
-                        segment: s.segment,
-                        line: line_of(&s.shape),
-                    };
+                    recs[l] = Rec::of(s, s.shape.aabb(), slack);
                     let (v, n, r) = core_in_cells(&s.shape, inv, grow);
                     let (cl, ch) = cell_range(&v[..n], r);
                     for k in 0..3 {
