@@ -214,6 +214,9 @@ fn every_scene_file_parses_and_bad_scenes_name_the_field() {
     for (name, _) in hair::scene::BUILTIN {
         Scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
     }
+    // The scene files that are not built in.
+    let big = Scene::load("scenes/strands10k.ron").unwrap();
+    assert_eq!(big.scene.name, "strands10k");
     let err = Scene::from_ron("Scene(frame_rate: -1.0)", "bad.ron")
         .unwrap_err()
         .to_string();
