@@ -851,7 +851,8 @@ impl Simulation {
     /// the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of the
     /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
     /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Passes from
-    /// [`BODY_PASSES`] on use the exact distance whatever the scene's method. Returns the nodes in
+    /// [`BODY_PASSES`] on use the exact distance whatever the scene's method once at most
+    /// [`EXACT_LATE_NODES`] nodes are left. Returns the nodes in
     /// contact on the first pass and the deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
@@ -893,11 +894,12 @@ impl Simulation {
         let skin = CONTACT_SKIN * self.scene.collision.tolerance;
         for pass in 0..=MAX_BODY_PASSES {
             let positions = self.state.positions();
-            // The late passes, on the few nodes still moving, query the exact distance: an
+            // The late passes, once few nodes are still moving, query the exact distance: an
             // approximate field or table can be wrong by about its spacing where the body is
             // thinner than that, and there its gradient can send a node back and forth across
-            // the surface without ever reaching it.
-            let method = if pass >= BODY_PASSES {
+            // the surface without ever reaching it. (With many nodes left, as when dense hair
+            // starts inside the body, exact queries would cost seconds per step.)
+            let method = if pass >= BODY_PASSES && self.body_nodes.len() <= EXACT_LATE_NODES {
                 CollisionMethod::Bvh
             } else {
                 method
@@ -1075,6 +1077,10 @@ pub const BODY_PASSES: usize = 8;
 /// Depth, as a fraction of the scene's penetration tolerance, below which a node in contact with
 /// the body is not moved (its approach is still removed).
 pub const CONTACT_SKIN: Real = 0.01;
+
+/// Largest number of nodes the late passes of the hard body constraint (from [`BODY_PASSES`] on)
+/// query by the exact distance instead of the scene's method.
+pub const EXACT_LATE_NODES: usize = 256;
 
 /// Most passes of the hard body constraint when nodes stay deeper than the tolerance.
 pub const MAX_BODY_PASSES: usize = 32;
