@@ -851,9 +851,9 @@ impl Simulation {
     /// the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of the
     /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
     /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Passes from
-    /// [`BODY_PASSES`] on use the exact distance whatever the scene's method once at most
-    /// [`EXACT_LATE_NODES`] nodes are left. Returns the nodes in
-    /// contact on the first pass and the deepest node centre left inside the body (m).
+    /// [`BODY_PASSES`] on use the exact distance, whatever the scene's method, once at most
+    /// [`EXACT_LATE_NODES`] nodes are left. Returns the nodes in contact on the first pass and
+    /// the deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
             return Ok((0, 0.0));

@@ -120,23 +120,11 @@ impl StrandState {
         let mut targets = std::mem::take(&mut self.target_scratch);
         targets.clear();
         targets.extend_from_slice(&self.positions);
-        let mut touched = std::mem::take(&mut self.touched_scratch);
-        touched.clear();
         for c in corrections {
             targets[c.node as usize] += c.delta;
-            let s = self.node_skeleton[c.node as usize];
-            let mark = &mut self.slot_scratch[s as usize];
-            if *mark == u32::MAX {
-                *mark = 0;
-                touched.push(s);
-            }
         }
-        // Each skeleton once, ascending: a sort of the touched skeletons only (hair-hair gives
-        // two corrections per pair, hundreds of thousands, on a few thousand skeletons).
-        touched.sort_unstable();
-        for &s in &touched {
-            self.slot_scratch[s as usize] = u32::MAX;
-        }
+        let mut touched = std::mem::take(&mut self.touched_scratch);
+        self.touched_skeletons(corrections.iter().map(|c| c.node), &mut touched);
         // Skeletons are independent: refit them in parallel.
         let (run, offsets, counts) = self.run_with_layout();
         let targets_ref = &targets;
@@ -192,16 +180,7 @@ impl StrandState {
         let mut touched = std::mem::take(&mut self.touched_scratch);
         // A counting sort by skeleton: the touched skeletons ascending, then each constraint
         // placed in its skeleton's group in its original order.
-        touched.clear();
-        for c in constraints {
-            let s = self.node_skeleton[c.node as usize];
-            let mark = &mut self.slot_scratch[s as usize];
-            if *mark == u32::MAX {
-                *mark = 0;
-                touched.push(s);
-            }
-        }
-        touched.sort_unstable();
+        self.touched_skeletons(constraints.iter().map(|c| c.node), &mut touched);
         groups.clear();
         groups.resize(touched.len() + 1, 0);
         for (g, &s) in touched.iter().enumerate() {
@@ -264,14 +243,11 @@ impl StrandState {
             }
             crate::error::finite_vec("velocity target", v)?;
         }
-        let mut touched = std::mem::take(&mut self.touched_scratch);
-        touched.clear();
         for (node, v) in targets {
             self.velocities[*node as usize] = *v;
-            touched.push(self.node_skeleton[*node as usize]);
         }
-        touched.sort_unstable();
-        touched.dedup();
+        let mut touched = std::mem::take(&mut self.touched_scratch);
+        self.touched_skeletons(targets.iter().map(|t| t.0), &mut touched);
         for &s in &touched {
             self.velocities_to_angles(s as usize);
         }
@@ -320,6 +296,25 @@ impl StrandState {
             omega += ax * wx + ay * wy;
             v_prev += omega.cross(&r);
             self.velocities[i] = v_prev;
+        }
+    }
+
+    /// The skeletons owning `nodes` (valid node slots), each once and ascending, into `touched`:
+    /// marked in `slot_scratch` as they come (responses touch a few thousand skeletons through
+    /// hundreds of thousands of nodes), which is left all `u32::MAX` again.
+    fn touched_skeletons(&mut self, nodes: impl Iterator<Item = u32>, touched: &mut Vec<u32>) {
+        touched.clear();
+        for node in nodes {
+            let s = self.node_skeleton[node as usize];
+            let mark = &mut self.slot_scratch[s as usize];
+            if *mark == u32::MAX {
+                *mark = 0;
+                touched.push(s);
+            }
+        }
+        touched.sort_unstable();
+        for &s in touched.iter() {
+            self.slot_scratch[s as usize] = u32::MAX;
         }
     }
 

@@ -62,6 +62,26 @@ impl<'a> Run<'a> {
     }
 }
 
+/// The whole of a [`StrandState`] as one [`Run`], borrowing only the fields a run holds: a macro,
+/// so that callers can hold other fields of the state at the same time.
+macro_rules! whole_run {
+    ($state:expr) => {
+        $crate::run::Run {
+            first: 0,
+            node_base: 0,
+            theta: &mut $state.theta,
+            phi: &mut $state.phi,
+            omega_theta: &mut $state.omega_theta,
+            omega_phi: &mut $state.omega_phi,
+            length: &mut $state.length,
+            positions: &mut $state.positions,
+            velocities: &mut $state.velocities,
+            roots: &mut $state.roots,
+        }
+    };
+}
+pub(crate) use whole_run;
+
 impl StrandState {
     /// The whole state as one run.
     pub(crate) fn run_all(&mut self) -> Run<'_> {
@@ -70,19 +90,7 @@ impl StrandState {
 
     /// The whole state as one run, with the first node and node count of every skeleton.
     pub(crate) fn run_with_layout(&mut self) -> (Run<'_>, &[u32], &[u32]) {
-        let run = Run {
-            first: 0,
-            node_base: 0,
-            theta: &mut self.theta,
-            phi: &mut self.phi,
-            omega_theta: &mut self.omega_theta,
-            omega_phi: &mut self.omega_phi,
-            length: &mut self.length,
-            positions: &mut self.positions,
-            velocities: &mut self.velocities,
-            roots: &mut self.roots,
-        };
-        (run, &self.offsets, &self.counts)
+        (whole_run!(self), &self.offsets, &self.counts)
     }
 }
 

@@ -14,6 +14,7 @@
 //! | [`Activity`], [`ActivityConfig`], [`ActivityInput`], [`CellState`] | active and dormant cells; frozen sections; the skeletons to integrate this step |
 //! | [`CellKey`] | integer cell coordinates on the global lattice, packed into ordered `u64` keys |
 //! | [`GridError`] | every failure on untrusted input (non-finite coordinates, bad cell size, too many cells) |
+//! | [`test_scenes`] | the seeded head-sized shell of hair that `hair bench grid`, the criterion benches and `examples/grid_profile.rs` measure |
 //!
 //! ## How the pair search works, and what it costs
 //!
@@ -169,6 +170,7 @@ mod error;
 mod grid;
 mod influence;
 mod pairs;
+pub mod test_scenes;
 
 pub use activity::{Activity, ActivityConfig, ActivityInput, CellActivity, CellState};
 pub use body::{BodyCells, BodyGrid};

@@ -3,8 +3,9 @@
 
 use std::time::Instant;
 
+use hair::grid::test_scenes::head_shell;
 use hair::grid::{Grid, GridConfig, PairSet, Section};
-use hair::ssv::{Lss, Point, Ssv, Vector};
+use hair::ssv::Point;
 use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vec3;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
@@ -37,89 +38,6 @@ pub struct Args {
     /// Random seed of the scene.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-}
-
-/// SplitMix64: a small seeded generator for the scene.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-}
-
-/// Head radius (m), segment length (m), segment radius (m).
-const HEAD: f32 = 0.1;
-const SEG: f32 = 0.01;
-const RADIUS: f32 = 0.0005;
-
-/// A head-sized shell of hair: strands rooted on the scalp (the upper part of a 10 cm sphere),
-/// growing out, bending under gravity, lying on the head in layers 1-30 mm thick and hanging
-/// down below it, in segments of about 1 cm with a 0.5 mm radius.
-pub fn head_scene(segments: usize, per_strand: usize, seed: u64) -> Vec<Section> {
-    let per_strand = per_strand.max(1);
-    let strands = segments.div_ceil(per_strand);
-    let mut rng = Rng(seed);
-    let mut out = Vec::with_capacity(strands * per_strand);
-    let down = Vector::new(0.0, -1.0, 0.0);
-    for s in 0..strands {
-        // Root: uniform on the sphere, kept on the scalp (above the ears, not on the face).
-        let n = loop {
-            let v = Vector::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            );
-            let l = v.norm();
-            if l > 1e-3 && l <= 1.0 {
-                let v = v / l;
-                let face = v.z > 0.3 && v.y < 0.5;
-                if v.y > -0.2 && !face {
-                    break v;
-                }
-            }
-        };
-        let layer = HEAD + rng.range(0.001, 0.03);
-        let mut p = Point::from(n * HEAD);
-        let mut dir = (n * 0.8 + down * 0.2).normalize();
-        let stiff = rng.range(0.1, 0.3);
-        let mut left = per_strand.min(segments - out.len());
-        let mut k = 0u32;
-        while left > 0 {
-            let noise = Vector::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            );
-            dir = (dir * (1.0 - stiff) + down * stiff + noise * 0.08).normalize();
-            let mut q = p + dir * SEG * rng.range(0.9, 1.1);
-            let r = q.coords.norm();
-            if r < layer {
-                q = Point::from(q.coords * (layer / r));
-                dir = (q - p).normalize();
-            }
-            out.push(Section {
-                skeleton: s as u32,
-                segment: k,
-                shape: Ssv::Line(Lss::new(p, q, RADIUS)),
-            });
-            p = q;
-            k += 1;
-            left -= 1;
-        }
-    }
-    out
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -213,7 +131,7 @@ fn brute_force(grid: &Grid, sections: &[Section]) -> Vec<[u32; 2]> {
 
 /// Runs the benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let sections = head_scene(args.segments, args.per_strand, args.seed);
+    let sections = head_shell(args.segments, args.per_strand, args.seed);
     let config = GridConfig {
         cell_size: (args.cell_size > 0.0).then_some(args.cell_size),
         ..GridConfig::default()

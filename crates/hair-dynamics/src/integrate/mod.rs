@@ -491,18 +491,8 @@ impl StrandState {
                 env: env.local(),
                 settings: *settings,
             };
-            let run = Run {
-                first: 0,
-                node_base: 0,
-                theta: &mut self.theta,
-                phi: &mut self.phi,
-                omega_theta: &mut self.omega_theta,
-                omega_phi: &mut self.omega_phi,
-                length: &mut self.length,
-                positions: &mut self.positions,
-                velocities: &mut self.velocities,
-                roots: &mut self.roots,
-            };
+            // The run borrows only its own fields: `sh` holds others.
+            let run = crate::run::whole_run!(self);
             if skeletons == 0 {
                 None
             } else {

@@ -1,0 +1,102 @@
+//! Seeded hair scenes for benches, profiling and reports (not part of the stable API).
+//!
+//! [`head_shell`] is the scene of `hair bench grid`, the crate's criterion benches and
+//! `examples/grid_profile.rs`, so that their figures describe the same sections.
+
+use crate::{Point, Section, Ssv, Vector};
+use hair_ssv::Lss;
+
+/// SplitMix64: a small seeded generator.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+}
+
+/// Head radius (m), segment length (m), segment radius (m).
+const HEAD: f32 = 0.1;
+const SEG: f32 = 0.01;
+const RADIUS: f32 = 0.0005;
+
+/// A head-sized shell of hair: `segments` sections in strands of `per_strand`, rooted on the
+/// scalp (the upper part of a 10 cm sphere, off the face), growing out, bending under gravity,
+/// lying on the head in layers 1-30 mm thick and hanging down below it, in segments of about
+/// 1 cm with a 0.5 mm radius. The same seed gives the same sections.
+pub fn head_shell(segments: usize, per_strand: usize, seed: u64) -> Vec<Section> {
+    let per_strand = per_strand.max(1);
+    let strands = segments.div_ceil(per_strand);
+    let mut rng = Rng(seed);
+    let mut out = Vec::with_capacity(strands * per_strand);
+    let down = Vector::new(0.0, -1.0, 0.0);
+    for s in 0..strands {
+        // Root: uniform on the sphere, kept on the scalp (above the ears, not on the face).
+        let n = loop {
+            let v = Vector::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            let l = v.norm();
+            if l > 1e-3 && l <= 1.0 {
+                let v = v / l;
+                let face = v.z > 0.3 && v.y < 0.5;
+                if v.y > -0.2 && !face {
+                    break v;
+                }
+            }
+        };
+        let layer = HEAD + rng.range(0.001, 0.03);
+        let mut p = Point::from(n * HEAD);
+        let mut dir = (n * 0.8 + down * 0.2).normalize();
+        let stiff = rng.range(0.1, 0.3);
+        for k in 0..per_strand.min(segments - out.len()) {
+            let noise = Vector::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            dir = (dir * (1.0 - stiff) + down * stiff + noise * 0.08).normalize();
+            let mut q = p + dir * SEG * rng.range(0.9, 1.1);
+            let r = q.coords.norm();
+            if r < layer {
+                q = Point::from(q.coords * (layer / r));
+                dir = (q - p).normalize();
+            }
+            out.push(Section {
+                skeleton: s as u32,
+                segment: k as u32,
+                shape: Ssv::Line(Lss::new(p, q, RADIUS)),
+            });
+            p = q;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shell_is_seeded_and_sized() {
+        let a = head_shell(1000, 30, 1);
+        assert_eq!(a.len(), 1000);
+        assert_eq!(a, head_shell(1000, 30, 1));
+        assert_ne!(a, head_shell(1000, 30, 2));
+        // 34 strands: 33 of 30 sections and one of 10.
+        assert_eq!(a.last().map(|s| (s.skeleton, s.segment)), Some((33, 9)));
+    }
+}
