@@ -448,3 +448,62 @@ pub fn wrinkled_torus(
     }
     (v, t)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::CollisionMethod;
+    use hair_ssv::test_meshes::{HEAD, SHOULDERS, SplitMix};
+
+    /// Whether `p` lies inside the ellipsoid `e` shrunk to `scale` of its semi-axes.
+    fn in_ellipsoid(e: ([Real; 3], [Real; 3]), scale: Real, p: &Point) -> bool {
+        let (c, r) = e;
+        (0..3)
+            .map(|i| ((p[i] - c[i]) / (r[i] * scale)).powi(2))
+            .sum::<Real>()
+            < 1.0
+    }
+
+    /// The head body is a union of a head, a neck tube and shoulders. Every point well inside
+    /// the head or the shoulders (the neck's junctions included, where interior walls once made
+    /// the signed distance call deep points outside) is inside by the exact distance and by the
+    /// distance field; every point well outside all three is outside.
+    #[test]
+    fn head_body_signed_distance_has_the_right_side_everywhere() {
+        let body = BodyModel::from_spec(&BodySpec::Head { resolution: 64 }, Path::new("."))
+            .unwrap()
+            .unwrap();
+        let mut rng = SplitMix(7);
+        let (mut inside, mut outside) = (0, 0);
+        while inside < 3000 || outside < 3000 {
+            let p = Point::new(
+                rng.range(-0.25, 0.25),
+                rng.range(-0.35, 0.15),
+                rng.range(-0.15, 0.15),
+            );
+            let deep = in_ellipsoid(HEAD, 0.9, &p) || in_ellipsoid(SHOULDERS, 0.9, &p);
+            let neck = (p.x * p.x + p.z * p.z).sqrt();
+            let near_neck = neck < 1.1 * NECK && p.y < 0.0 && p.y > SHOULDERS.0[1];
+            let clear =
+                !(in_ellipsoid(HEAD, 1.1, &p) || in_ellipsoid(SHOULDERS, 1.1, &p) || near_neck);
+            for method in [CollisionMethod::Bvh, CollisionMethod::Field] {
+                let d = body.distance(method, &p).map(|(d, _)| d);
+                if deep {
+                    assert!(
+                        d.is_some_and(|d| d < 0.0),
+                        "{p:?} inside, {method:?} gives {d:?}"
+                    );
+                } else if clear {
+                    assert!(
+                        d.is_none_or(|d| d > 0.0),
+                        "{p:?} outside, {method:?} gives {d:?}"
+                    );
+                }
+            }
+            inside += usize::from(deep);
+            outside += usize::from(clear);
+        }
+    }
+
+    const NECK: Real = hair_ssv::test_meshes::NECK_RADIUS;
+}

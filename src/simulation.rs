@@ -936,12 +936,20 @@ impl Simulation {
                     let len = (p - a).norm();
                     if len > 1e-9 {
                         let u0 = (p - a) / len;
-                        let c = ((n.dot(&u0) * len + lift) / len).clamp(-1.0, 1.0);
-                        let side = u0 - n * n.dot(&u0);
-                        let side = side
-                            .try_normalize(1e-6)
-                            .unwrap_or_else(|| any_perpendicular(n));
-                        target = a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len;
+                        let c = (n.dot(&u0) * len + lift) / len;
+                        target = match (c > 1.0)
+                            .then(|| turn_out(body, method, a, u0, len, bn.radius))
+                        {
+                            Some(Some(t)) => t,
+                            _ => {
+                                let c = c.clamp(-1.0, 1.0);
+                                let side = u0 - n * n.dot(&u0);
+                                let side = side
+                                    .try_normalize(1e-6)
+                                    .unwrap_or_else(|| any_perpendicular(n));
+                                a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
+                            }
+                        };
                     }
                 }
                 self.corrections.push(NodeCorrection {
@@ -1070,6 +1078,34 @@ impl Simulation {
             });
     }
 }
+
+/// Where a node at `len` from its parent node `a` (its segment along `u0`) can go outside the
+/// body when lifting it along its own surface normal cannot reach the surface: the first of a
+/// few directions turned from `u0` toward the body's normal at `a` (back along the segment when
+/// `a` is far from the body) that leaves the node's centre `radius` outside, by `method`.
+/// A node that swung up into the underside of a part finds its nearest surface on the top, out
+/// of reach of its segment; this sends it back out the side it came in by.
+fn turn_out(
+    body: &BodyModel,
+    method: CollisionMethod,
+    a: Point,
+    u0: Vector,
+    len: Real,
+    radius: Real,
+) -> Option<Point> {
+    let away = body.distance(method, &a).map_or(-u0, |(_, n)| n);
+    (1..=TURN_OUT_STEPS).find_map(|k| {
+        let t = k as Real / TURN_OUT_STEPS as Real;
+        let dir = (u0 * (1.0 - t) + away * t).try_normalize(1e-6)?;
+        let q = a + dir * len;
+        body.distance(method, &q)
+            .is_none_or(|(d, _)| d >= radius)
+            .then_some(q)
+    })
+}
+
+/// Directions [`turn_out`] tries between a segment and the body's normal at its parent node.
+const TURN_OUT_STEPS: usize = 8;
 
 /// Detect-and-correct passes of the hard body constraint per step (a final detection follows).
 pub const BODY_PASSES: usize = 8;

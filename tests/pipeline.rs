@@ -57,34 +57,13 @@ fn run(
     })
 }
 
-/// Deepest node centre inside the body after the ramp that the pipeline holds today on `wind`,
-/// `shake` and `sintel` (m), whose nodes exceed the scenes' 1 mm tolerance: `wind` about 6 mm
-/// once, right after the ramp, `sintel` 1.8 mm, `shake` 16 mm. In `wind` a node went through a
-/// thin part of the body and finds the nearest surface on the far side, and turning its segment
-/// toward that surface's normal cannot bring it out; `shake` and `sintel` are not examined yet. This bound catches a hard constraint that stops working; the other
-/// scenes are held to their tolerance.
-const PENETRATION_BOUND_M: f64 = 0.02;
-
-/// How deep a node may stay inside the body after the ramp.
-#[derive(Clone, Copy)]
-enum Depth {
-    /// The scene's own tolerance.
-    Tolerance,
-    /// [`PENETRATION_BOUND_M`].
-    Known,
-}
-
-/// Every built-in scene for 100 steps: finite, every step after the ramp within its bound, and
-/// the same hash on 1 and 2 threads (compared after 20 steps to keep the single-threaded half of
-/// the suite short).
-fn check_scene(name: &str, depth: Depth) {
+/// Every built-in scene for 100 steps: finite, every step after the ramp within the scene's
+/// penetration tolerance, and the same hash on 1 and 2 threads (compared after 20 steps to keep
+/// the single-threaded half of the suite short).
+fn check_scene(name: &str) {
     let (h2, _, worst, tolerance) = run(name, LodPolicy::Fine, 100, 20, 2);
-    let bound = match depth {
-        Depth::Tolerance => tolerance,
-        Depth::Known => PENETRATION_BOUND_M.max(tolerance),
-    };
     assert!(
-        worst <= bound,
+        worst <= tolerance,
         "{name}: a node {worst} m inside the body after the ramp (tolerance {tolerance} m)"
     );
     let (h1, _, _, _) = run(name, LodPolicy::Fine, 20, 20, 1);
@@ -93,37 +72,37 @@ fn check_scene(name: &str, depth: Depth) {
 
 #[test]
 fn scene_wind() {
-    check_scene("wind", Depth::Known);
+    check_scene("wind");
 }
 
 #[test]
 fn scene_shake() {
-    check_scene("shake", Depth::Known);
+    check_scene("shake");
 }
 
 #[test]
 fn scene_torus() {
-    check_scene("torus", Depth::Tolerance);
+    check_scene("torus");
 }
 
 #[test]
 fn scene_zoom() {
-    check_scene("zoom", Depth::Tolerance);
+    check_scene("zoom");
 }
 
 #[test]
 fn scene_bristles() {
-    check_scene("bristles", Depth::Tolerance);
+    check_scene("bristles");
 }
 
 #[test]
 fn scene_wardlin() {
-    check_scene("wardlin", Depth::Tolerance);
+    check_scene("wardlin");
 }
 
 #[test]
 fn scene_sintel() {
-    check_scene("sintel", Depth::Known);
+    check_scene("sintel");
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Procedural meshes for tests, benches and reports (not part of the stable API).
 //!
-//! [`head_and_shoulders`] merges a bumpy ellipsoid head, an open neck tube whose ends sit just
-//! inside the head and the shoulders, and a shoulder ellipsoid; metres, `+y` up, face `+z`.
+//! [`head_and_shoulders`] merges a bumpy ellipsoid head, an open neck tube whose ends sit on
+//! the head's and the shoulders' surfaces, and a shoulder ellipsoid; metres, `+y` up, face `+z`.
 
 use std::f32::consts::{PI, TAU};
 
@@ -109,6 +109,30 @@ fn ellipsoid_y(e: ([Real; 3], [Real; 3]), x: Real, z: Real, sign: Real) -> Real 
     c[1] + sign * r[1] * q.max(0.0).sqrt()
 }
 
+/// Height of the bumpy head's lower surface above `(x, z)` (inside its outline), by bisection
+/// on the radial test `|p / radii| < head_bump(theta, phi)` used to build it.
+fn bumpy_head_bottom(x: Real, z: Real) -> Real {
+    let (c, r) = HEAD;
+    let inside = |y: Real| {
+        let u = Vector::new((x - c[0]) / r[0], (y - c[1]) / r[1], (z - c[2]) / r[2]);
+        let rho = u.norm();
+        let phi = (u.y / rho).clamp(-1.0, 1.0).acos();
+        let theta = u.z.atan2(u.x).rem_euclid(TAU);
+        rho < head_bump(theta, phi)
+    };
+    // The centre is inside; a point two semi-axes below it is outside.
+    let (mut lo, mut hi) = (c[1] - 2.0 * r[1], c[1]);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if inside(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
+}
+
 /// The head-and-shoulders mesh: vertices and counter-clockwise (outward) triangles.
 /// `resolution` 96 gives about 50,000 triangles; 24 about 3,000.
 pub fn head_and_shoulders(resolution: usize) -> (Vec<Point>, Vec<[u32; 3]>) {
@@ -125,7 +149,9 @@ pub fn head_and_shoulders(resolution: usize) -> (Vec<Point>, Vec<[u32; 3]>) {
         &mut v,
         &mut tris,
     );
-    // neck tube, ends 5 mm inside the head and the shoulders
+    // The neck tube ends on the head's and the shoulders' surfaces. Ends pushed inside them
+    // would be interior walls: the closest triangle to a point deep in the shoulders is then
+    // often the tube's outward-facing stub, and the signed distance calls the point outside.
     let around = (2 * res / 3).max(8);
     let rings = 12;
     let base = v.len() as u32;
@@ -134,8 +160,8 @@ pub fn head_and_shoulders(resolution: usize) -> (Vec<Point>, Vec<[u32; 3]>) {
         for i in 0..around {
             let theta = TAU * i as Real / around as Real;
             let (x, z) = (NECK_RADIUS * theta.cos(), NECK_RADIUS * theta.sin());
-            let y_low = ellipsoid_y(SHOULDERS, x, z, 1.0) - 0.005;
-            let y_high = ellipsoid_y(HEAD, x, z, -1.0) + 0.005;
+            let y_low = ellipsoid_y(SHOULDERS, x, z, 1.0);
+            let y_high = bumpy_head_bottom(x, z);
             v.push(Point::new(x, y_low + (y_high - y_low) * f, z));
         }
     }
