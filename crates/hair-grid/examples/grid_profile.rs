@@ -10,7 +10,9 @@
 //! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind` with `build 1` and `build 3` (or `pairs`);
 //! half the difference of the two totals is the cost of one. `candidates` times the pair search
 //! without the exact test ([`Grid::candidate_pairs`]), so that the exact test's share is the
-//! difference.
+//! difference. With `HAIR_GRID_SECTIONS=FILE` it profiles the sections in `FILE` instead (per
+//! section, little endian: `a`, `b` and the radius as 7 `f32`, then skeleton and segment as 2
+//! `u32`), for instance a simulation's sections at one step.
 use std::time::Instant;
 
 use hair_grid::test_scenes::head_shell;
@@ -20,7 +22,36 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let mode = args.get(1).map(String::as_str).unwrap_or("both");
     let reps: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);
-    let secs = head_shell(300_000, 30, 1);
+    // HAIR_GRID_SECTIONS: a file of sections (per section 7 f32 a, b, radius and 2 u32 skeleton,
+    // segment, little endian) to profile instead of the head shell.
+    let secs = match std::env::var("HAIR_GRID_SECTIONS") {
+        Ok(path) => {
+            let bytes = std::fs::read(path).expect("sections file");
+            let word = |k: usize| {
+                [
+                    bytes[4 * k],
+                    bytes[4 * k + 1],
+                    bytes[4 * k + 2],
+                    bytes[4 * k + 3],
+                ]
+            };
+            (0..bytes.len() / 36)
+                .map(|i| {
+                    let f = |j: usize| f32::from_le_bytes(word(9 * i + j));
+                    hair_grid::Section {
+                        skeleton: u32::from_le_bytes(word(9 * i + 7)),
+                        segment: u32::from_le_bytes(word(9 * i + 8)),
+                        shape: hair_grid::Ssv::Line(hair_ssv::Lss::new(
+                            hair_grid::Point::new(f(0), f(1), f(2)),
+                            hair_grid::Point::new(f(3), f(4), f(5)),
+                            f(6),
+                        )),
+                    }
+                })
+                .collect()
+        }
+        Err(_) => head_shell(300_000, 30, 1),
+    };
     // Optional third argument: the cell size in metres (default: the mean segment length).
     let cell_size: Option<f32> = args.get(3).and_then(|s| s.parse().ok());
     let mut grid = Grid::new(GridConfig {

@@ -15,9 +15,14 @@ use rayon::prelude::*;
 use crate::grid::{Grid, unpack3};
 use crate::{Real, Ssv};
 
-/// Cells handled by one parallel task: fixed, so that the output order does not depend on the
-/// number of threads.
-const CELLS_PER_TASK: usize = 256;
+/// Work of one parallel task, in pair tests: a cell of `m` sections counts `m * m` plus
+/// [`CELL_WORK`]. The tasks cut the cells by this estimate alone, so that a few crowded cells
+/// (long sections, dense hair) are spread over the threads as well as many sparse ones are, and
+/// the output order does not depend on the number of threads.
+const TASK_WORK: u64 = 1 << 16;
+
+/// The fixed cost of visiting a cell, in pair tests.
+const CELL_WORK: u64 = 16;
 
 /// Lanes of the box test and of the exact test.
 const LANES: usize = 8;
@@ -118,6 +123,8 @@ struct RowHead {
 pub struct PairSet {
     chunks: Vec<PairChunk>,
     used: usize,
+    /// First cell of each task, and the end.
+    bounds: Vec<usize>,
 }
 
 impl PairSet {
@@ -224,18 +231,33 @@ impl Grid {
     fn enumerate_pairs_with(&self, out: &mut PairSet, exact: bool, avx2: bool) {
         out.clear();
         let n_cells = self.cell_keys.len();
-        let tasks = n_cells.div_ceil(CELLS_PER_TASK);
+        let bounds = &mut out.bounds;
+        bounds.clear();
+        bounds.push(0);
+        let mut work = 0u64;
+        for (c, w) in self.cell_start.windows(2).enumerate() {
+            let m = u64::from(w[1] - w[0]);
+            work += m * m + CELL_WORK;
+            if work >= TASK_WORK {
+                bounds.push(c + 1);
+                work = 0;
+            }
+        }
+        if *bounds.last().unwrap_or(&0) < n_cells {
+            bounds.push(n_cells);
+        }
+        let tasks = bounds.len() - 1;
         if out.chunks.len() < tasks {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
         let avx2 = avx2 && has_avx2();
+        let bounds = &out.bounds;
         out.chunks[..tasks]
             .par_iter_mut()
             .enumerate()
             .for_each(|(t, chunk)| {
-                let c0 = t * CELLS_PER_TASK;
-                let cells = c0..(c0 + CELLS_PER_TASK).min(n_cells);
+                let cells = bounds[t]..bounds[t + 1];
                 if avx2 {
                     self.task_avx2(cells, chunk, exact);
                 } else {
