@@ -42,9 +42,10 @@
 //! without a branch (its outcome is unpredictable);
 //! the survivors get the exact LSS-LSS distance eight at a time, and any pair within a rounding
 //! band of the margin (or not two LSS) goes to the scalar `hair-ssv` kernel, so the set is
-//! exactly `Ssv::distance <= margin`. Cells are split into fixed tasks of 256 and the output is
-//! their concatenation in order, so it does not depend on the number of threads or on the
-//! kernel (a test runs both).
+//! exactly `Ssv::distance <= margin`. Cells are split into tasks of about equal estimated work
+//! (`m^2` pair tests for a cell of `m` sections; fixed counts of 256 cells left a simulation's
+//! few crowded cells of long sections to one thread), and the output is their concatenation in
+//! order, so it does not depend on the number of threads or on the kernel (a test runs both).
 //!
 //! Measured on the `hair bench grid` scene (300,000 segments of about 1 cm, radius 0.5 mm, on a
 //! head-sized shell; 865,502 entries, 1.2 M candidates, 199,478 overlapping pairs), one thread,
