@@ -197,10 +197,18 @@ impl Bvh {
         let mut best_d2 = Real::INFINITY;
         let mut stack = [0u32; 128];
         let mut sp = 1usize;
+        // A point is tested against the node's box first: six comparisons where the RSS bound
+        // projects onto the node's rectangle.
+        let point = match ssv {
+            Ssv::Point(p) => Some(p.center),
+            _ => None,
+        };
         while sp > 0 {
             sp -= 1;
             let node = &self.nodes[stack[sp] as usize];
-            if node_lower_bound_sq(ssv, &node.rss) >= best_d2 {
+            if point.is_some_and(|p| box_distance_sq(&p, &node.lo, &node.hi) >= best_d2)
+                || node_lower_bound_sq(ssv, &node.rss) >= best_d2
+            {
                 continue;
             }
             if node.count > 0 {
@@ -370,6 +378,17 @@ impl Bvh {
             .map(|s| self.closest(s))
             .collect()
     }
+}
+
+/// Squared distance from `p` to the box `[lo, hi]` (0 inside).
+#[inline(always)]
+fn box_distance_sq(p: &Point, lo: &Point, hi: &Point) -> Real {
+    let mut d2 = 0.0;
+    for k in 0..3 {
+        let e = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
+        d2 += e * e;
+    }
+    d2
 }
 
 #[inline(always)]
