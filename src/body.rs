@@ -50,7 +50,6 @@ pub struct DistanceField {
     samples: Vec<AtomicU32>,
 }
 
-pub static FILLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 /// Bits of a sample not yet computed (a NaN no distance can produce).
 const UNKNOWN: u32 = 0x7fc0_dead;
 
@@ -126,7 +125,6 @@ impl DistanceField {
         if bits != UNKNOWN {
             return Real::from_bits(bits);
         }
-        FILLS.fetch_add(1, Ordering::Relaxed);
         let c = self.min + Vector::new(x as Real, y as Real, z as Real) * self.h;
         let d = exact_signed_distance(body, &c).map_or(Real::MAX, |(d, _, _)| d);
         self.samples[k].store(d.to_bits(), Ordering::Relaxed);

@@ -642,21 +642,6 @@ impl Simulation {
                 self.section_node.push(i as u32);
             }
         }
-        if self.steps == 40
-            && let Ok(path) = std::env::var("HAIR_DUMP_SECTIONS")
-        {
-            let mut out = Vec::new();
-            for sec in &self.sections {
-                if let Ssv::Line(l) = &sec.shape {
-                    for v in [l.a.x, l.a.y, l.a.z, l.b.x, l.b.y, l.b.z, l.radius] {
-                        out.extend_from_slice(&v.to_le_bytes());
-                    }
-                    out.extend_from_slice(&sec.skeleton.to_le_bytes());
-                    out.extend_from_slice(&sec.segment.to_le_bytes());
-                }
-            }
-            std::fs::write(path, out).unwrap();
-        }
         self.grid.rebuild(&self.sections)?;
         // Localization: sections frozen when every cell they cover has been quiet.
         if self.scene.localization {
@@ -720,9 +705,7 @@ impl Simulation {
         // 4. Hair-hair (soft): push overlapping sections apart by half the overlap each; let
         // near-parallel ones share their velocity instead.
         if self.scene.collision.hair_hair {
-            let tq0 = Instant::now();
             self.grid.overlapping_pairs(&mut self.pairs);
-            let tq1 = Instant::now();
             stats.pairs_tested = self.pairs.len();
             self.pair_list.clear();
             self.pair_list.extend(self.pairs.iter());
@@ -757,7 +740,6 @@ impl Simulation {
                     }
                 })
                 .collect_into_vec(&mut self.pair_responses);
-            let tq2 = Instant::now();
             self.corrections.clear();
             for r in &self.pair_responses {
                 match *r {
@@ -787,30 +769,7 @@ impl Simulation {
                     }
                 }
             }
-            let tq3 = Instant::now();
             self.state.apply_corrections(&self.corrections)?;
-            if std::env::var("HAIR_DEBUG_HH").is_ok() && self.steps % 10 == 5 {
-                let tq4 = Instant::now();
-                let share = self
-                    .pair_responses
-                    .iter()
-                    .filter(|r| matches!(r, PairResponse::Share(..)))
-                    .count();
-                eprintln!(
-                    "fills {} ",
-                    crate::body::FILLS.load(std::sync::atomic::Ordering::Relaxed)
-                );
-                eprintln!(
-                    "hh search {:.1} map {:.1} loop {:.1} apply {:.1} pairs {} share {} corr {}",
-                    ms(tq0, tq1),
-                    ms(tq1, tq2),
-                    ms(tq2, tq3),
-                    ms(tq3, tq4),
-                    self.pair_responses.len(),
-                    share,
-                    self.corrections.len()
-                );
-            }
         }
         let t4 = Instant::now();
         stats.ms_hair_hair = ms(t3, t4);
