@@ -25,8 +25,19 @@ pub(crate) fn transport_frames(
     out: &mut Vec<Matrix3<Real>>,
 ) {
     out.clear();
+    out.resize(points.len(), Matrix3::identity());
+    transport_frames_into(points, first, out);
+}
+
+/// [`transport_frames`] into a slice: frame `k` of the polyline into `out[k]`, for as many
+/// points as `out` holds.
+pub(crate) fn transport_frames_into(
+    points: &[Point],
+    first: &Matrix3<Real>,
+    out: &mut [Matrix3<Real>],
+) {
     let mut frame = *first;
-    for k in 0..points.len() {
+    for (k, o) in out.iter_mut().enumerate().take(points.len()) {
         if k > 0 {
             // The same minimal rotation between tangents as the strand kinematics uses.
             if let Some(t) = (points[k] - points[k - 1]).try_normalize(1e-12) {
@@ -34,15 +45,33 @@ pub(crate) fn transport_frames(
                 frame *= hair_dynamics::Bend::new(x, y).rotation;
             }
         }
-        out.push(frame);
+        *o = frame;
     }
 }
 
 /// Catmull-Rom through `control` with `sub` points per segment, into `out` (appended).
 pub(crate) fn catmull_rom(control: &[Point], sub: usize, out: &mut Vec<Point>) {
+    catmull_rom_each(control, sub, |p| out.push(p));
+}
+
+/// [`catmull_rom`] into a slice, from its start; points past its end are dropped. Returns the
+/// number of points of the curve (`sub * (control.len() - 1) + 1`, or `control.len()`).
+pub(crate) fn catmull_rom_into(control: &[Point], sub: usize, out: &mut [Point]) -> usize {
+    let mut k = 0;
+    catmull_rom_each(control, sub, |p| {
+        if let Some(o) = out.get_mut(k) {
+            *o = p;
+        }
+        k += 1;
+    });
+    k
+}
+
+/// The points of the Catmull-Rom curve through `control`, `sub` per segment, in order.
+fn catmull_rom_each(control: &[Point], sub: usize, mut emit: impl FnMut(Point)) {
     let n = control.len();
     if n < 2 || sub <= 1 {
-        out.extend_from_slice(control);
+        control.iter().for_each(|&p| emit(p));
         return;
     }
     for i in 0..n - 1 {
@@ -66,10 +95,10 @@ pub(crate) fn catmull_rom(control: &[Point], sub: usize, out: &mut Vec<Point>) {
                 + (p2.coords - p0.coords) * t
                 + (p0.coords * 2.0 - p1.coords * 5.0 + p2.coords * 4.0 - p3.coords) * t2
                 + (p1.coords * 3.0 - p0.coords - p2.coords * 3.0 + p3.coords) * t3;
-            out.push(Point::from(c * 0.5));
+            emit(Point::from(c * 0.5));
         }
     }
-    out.push(control[n - 1]);
+    emit(control[n - 1]);
 }
 
 impl RenderGeometry {

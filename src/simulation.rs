@@ -6,7 +6,9 @@
 
 use crate::adaptive::{AdaptiveLod, View};
 use crate::body::BodyModel;
-use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
+use crate::render_geometry::{
+    RenderGeometry, catmull_rom_into, transport_frames, transport_frames_into,
+};
 use crate::scene::{CollisionMethod, IntegratorSpec, LodPolicy, Scene, TorqueSpec};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
 use hair_dynamics::{
@@ -102,7 +104,11 @@ pub struct Simulation {
     body_hits: Vec<Option<(Real, Vector)>>,
     render: RenderGeometry,
     strand_node: Vec<u32>,
-    node_frames: Vec<Vec<Matrix3<Real>>>,
+    /// Transport frames of the front skeletons' nodes, by global node index.
+    node_frames: Vec<Matrix3<Real>>,
+    /// The front skeletons' node ranges and ids `(start, end, node)`, ascending: the frames are
+    /// filled by splitting `node_frames` along them.
+    front_ranges: Vec<(usize, usize, u32)>,
     node_radius: Vec<Real>,
     strand_rest: Vec<Point>,
     /// Per node, where its strands' offsets start in `strand_local`.
@@ -269,6 +275,7 @@ impl Simulation {
             },
             strand_node: Vec::new(),
             node_frames: Vec::new(),
+            front_ranges: Vec::new(),
             node_radius,
             strand_rest,
             node_local_start: Vec::new(),
@@ -533,6 +540,13 @@ impl Simulation {
                 self.strand_slot[s as usize] = start + j as u32 * per;
             }
         }
+        self.front_ranges.clear();
+        let state = &self.state;
+        self.front_ranges.extend(self.front_nodes.iter().map(|&n| {
+            let r = state.nodes(SkeletonId(n));
+            (r.start, r.end, n)
+        }));
+        self.front_ranges.sort_unstable();
     }
 
     /// The active front of the adaptive policy as a sorted node list, and the strands' owners.
@@ -1022,29 +1036,18 @@ impl Simulation {
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
         let n_strands = h.strand_total();
         let sub = self.render.subdivisions.max(1);
-        // Frames of every front node along its current polyline.
-        self.node_frames.resize(h.node_count(), Vec::new());
+        // Frames of every front node along its current polyline, into disjoint ranges of one
+        // buffer (no allocation once it has grown).
+        self.node_frames
+            .resize(self.state.node_count(), Matrix3::identity());
         let state = &self.state;
-        let frames: Vec<(u32, Vec<Matrix3<Real>>)> = self
-            .front_nodes
-            .par_iter()
-            .map(|&n| {
-                let r = state.nodes(SkeletonId(n));
-                let mut f = Vec::with_capacity(r.len());
-                transport_frames(
-                    &state.positions()[r.clone()],
-                    state.root_frame(SkeletonId(n)).matrix(),
-                    &mut f,
-                );
-                (n, f)
-            })
-            .collect();
-        for (n, f) in frames {
-            self.node_frames[n as usize] = f;
-        }
+        fill_frames(state, &mut self.node_frames, 0, &self.front_ranges);
         let per = self.points_per_strand;
         let verts = sub * (per - 1) + 1;
-        self.render.offsets = (0..=n_strands as u32).map(|s| s * verts as u32).collect();
+        self.render.offsets.clear();
+        self.render
+            .offsets
+            .extend((0..=n_strands as u32).map(|s| s * verts as u32));
         self.render
             .positions
             .resize(n_strands * verts, Point::origin());
@@ -1062,21 +1065,43 @@ impl Simulation {
             .for_each(|(s, out)| {
                 let node = strand_node[s];
                 let r = state.nodes(SkeletonId(node));
-                let p = &state.positions()[r];
-                let frames = &node_frames[node as usize];
+                let p = &state.positions()[r.clone()];
+                let frames = &node_frames[r.clone()];
                 let mut control = [Point::origin(); 64];
                 let count = p.len().min(per).min(64);
                 for k in 0..count {
                     control[k] =
                         origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
                 }
-                let mut tmp = Vec::with_capacity(verts);
-                catmull_rom(&control[..count], sub, &mut tmp);
-                for (o, v) in out.iter_mut().zip(tmp) {
-                    *o = v;
-                }
+                catmull_rom_into(&control[..count], sub, out);
             });
     }
+}
+
+/// The transport frames of the skeletons whose node ranges are `ranges` (ascending, disjoint,
+/// inside `base..base + frames.len()`) into `frames`, split in halves across threads.
+fn fill_frames(
+    state: &StrandState,
+    frames: &mut [Matrix3<Real>],
+    base: usize,
+    ranges: &[(usize, usize, u32)],
+) {
+    if ranges.len() <= 16 {
+        for &(start, end, node) in ranges {
+            transport_frames_into(
+                &state.positions()[start..end],
+                state.root_frame(SkeletonId(node)).matrix(),
+                &mut frames[start - base..end - base],
+            );
+        }
+        return;
+    }
+    let mid = ranges.len() / 2;
+    let (low, high) = frames.split_at_mut(ranges[mid].0 - base);
+    rayon::join(
+        || fill_frames(state, low, base, &ranges[..mid]),
+        || fill_frames(state, high, ranges[mid].0, &ranges[mid..]),
+    );
 }
 
 /// Where a node at `len` from its parent node `a` (its segment along `u0`) can go outside the
