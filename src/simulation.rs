@@ -96,6 +96,8 @@ pub struct Simulation {
     previous_positions: Vec<Point>,
     frozen_skeleton: Vec<bool>,
     corrections: Vec<NodeCorrection>,
+    /// Hair-hair pushes summed per node (zero between steps).
+    node_push: Vec<Vector>,
     constraints: Vec<VelocityConstraint>,
     pair_list: Vec<[u32; 2]>,
     pair_responses: Vec<PairResponse>,
@@ -263,6 +265,7 @@ impl Simulation {
             previous_positions: Vec::new(),
             frozen_skeleton: Vec::new(),
             corrections: Vec::new(),
+            node_push: Vec::new(),
             constraints: Vec::new(),
             pair_list: Vec::new(),
             pair_responses: Vec::new(),
@@ -755,6 +758,8 @@ impl Simulation {
                 })
                 .collect_into_vec(&mut self.pair_responses);
             self.corrections.clear();
+            self.node_push
+                .resize(self.state.node_count(), Vector::zeros());
             for r in &self.pair_responses {
                 match *r {
                     PairResponse::None => {}
@@ -772,15 +777,20 @@ impl Simulation {
                     }
                     PairResponse::Push(a, b, half) => {
                         stats.hair_contacts += 1;
-                        self.corrections.push(NodeCorrection {
-                            node: a,
-                            delta: -half,
-                        });
-                        self.corrections.push(NodeCorrection {
-                            node: b,
-                            delta: half,
-                        });
+                        self.node_push[a as usize] -= half;
+                        self.node_push[b as usize] += half;
                     }
+                }
+            }
+            // One correction per pushed node (a section has dozens of neighbours in dense hair),
+            // summed in pair order.
+            for (node, push) in self.node_push.iter_mut().enumerate() {
+                if *push != Vector::zeros() {
+                    self.corrections.push(NodeCorrection {
+                        node: node as u32,
+                        delta: *push,
+                    });
+                    *push = Vector::zeros();
                 }
             }
             self.state.apply_corrections(&self.corrections)?;
