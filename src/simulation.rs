@@ -89,6 +89,8 @@ pub struct Simulation {
     grid: Grid,
     sections: Vec<Section>,
     section_node: Vec<u32>,
+    /// Unit direction of each section (zero for a degenerate one).
+    section_tangent: Vec<Vector>,
     pairs: PairSet,
     activity: Activity,
     speeds: Vec<Real>,
@@ -259,6 +261,7 @@ impl Simulation {
             grid: Grid::new(GridConfig::default()),
             sections: Vec::new(),
             section_node: Vec::new(),
+            section_tangent: Vec::new(),
             pairs: PairSet::new(),
             activity: Activity::new(ActivityConfig::default()),
             speeds: Vec::new(),
@@ -727,7 +730,15 @@ impl Simulation {
             self.pair_list.clear();
             self.pair_list.extend(self.pairs.iter());
             let cos_parallel = self.scene.collision.parallel_angle.cos();
-            let (sections, section_node, state) = (&self.sections, &self.section_node, &self.state);
+            let sections = &self.sections;
+            self.section_tangent.clear();
+            self.section_tangent
+                .extend(sections.iter().map(|s| match &s.shape {
+                    Ssv::Line(l) => (l.b - l.a).try_normalize(0.0).unwrap_or_else(Vector::zeros),
+                    _ => Vector::zeros(),
+                }));
+            let (section_node, tangent, state) =
+                (&self.section_node, &self.section_tangent, &self.state);
             self.pair_list
                 .par_iter()
                 .map(|&[a, b]| {
@@ -741,8 +752,7 @@ impl Simulation {
                         return PairResponse::None;
                     }
                     let (na, nb) = (section_node[a as usize], section_node[b as usize]);
-                    let ta = (la.b - la.a).normalize();
-                    let tb = (lb.b - lb.a).normalize();
+                    let (ta, tb) = (tangent[a as usize], tangent[b as usize]);
                     if ta.dot(&tb).abs() >= cos_parallel {
                         return PairResponse::Share(na, nb);
                     }
