@@ -12,6 +12,59 @@ use std::path::Path;
 /// Semi-axes of the scalp ellipsoid of the procedural head (m), centred at the head origin.
 pub const SCALP: [Real; 3] = [0.078, 0.115, 0.097];
 
+/// Clearance of draped hair over the procedural head's surface (m), beyond two strand radii:
+/// the head mesh's bumps rise up to 3 mm above [`SCALP`].
+const DRAPE_CLEARANCE: Real = 0.004;
+
+/// Lays a straight strand (`points`, root first) over the procedural head: root to tip, each
+/// segment keeps its length and direction, turned toward straight down by its length over
+/// [`DRAPE_TURN`], and a point that would lie within `clearance` of the scalp, the neck or the
+/// shoulders is moved out onto that margin along the part's radius (then back to the segment's
+/// length, twice).
+fn drape(points: &mut [Point], clearance: Real) {
+    use hair_ssv::test_meshes::{NECK_RADIUS, SHOULDERS};
+    let out_of = |q: Point| -> Point {
+        let mut q = q;
+        for (c, r) in [([0.0, 0.0, 0.0], SCALP), SHOULDERS] {
+            let c = Vector::from(c);
+            let d = q.coords - c;
+            let f: Real = (0..3).map(|k| (d[k] / (r[k] + clearance)).powi(2)).sum();
+            if f < 1.0 && f > 0.0 {
+                q = Point::from(c + d / f.sqrt());
+            }
+        }
+        let (rxz, reach) = (q.x.hypot(q.z), NECK_RADIUS + clearance);
+        if rxz < reach && rxz > 0.0 && q.y < 0.0 && q.y > SHOULDERS.0[1] {
+            let s = reach / rxz;
+            q = Point::new(q.x * s, q.y, q.z * s);
+        }
+        q
+    };
+    let styled: Vec<Vector> = points.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut dir: Option<Vector> = None;
+    for (k, step) in styled.iter().enumerate() {
+        let len = step.norm();
+        if len <= 0.0 {
+            continue;
+        }
+        let d = dir.unwrap_or(*step / len);
+        let d = (d - Vector::y() * (len / DRAPE_TURN))
+            .try_normalize(1e-9)
+            .unwrap_or(d);
+        let from = points[k];
+        let mut q = out_of(from + d * len);
+        for _ in 0..2 {
+            q = out_of(from + (q - from).try_normalize(1e-9).unwrap_or(d) * len);
+        }
+        let q = from + (q - from).try_normalize(1e-9).unwrap_or(d) * len;
+        dir = (q - from).try_normalize(1e-9);
+        points[k + 1] = q;
+    }
+}
+
+/// Length of hair over which a free draped strand turns fully toward straight down (m).
+const DRAPE_TURN: Real = 0.05;
+
 /// A deterministic SplitMix64 stream.
 #[derive(Clone, Debug)]
 pub struct Rng(pub u64);
@@ -192,7 +245,7 @@ pub fn procedural(p: &ProceduralHair, seed: u64) -> Result<Hairstyle, HairError>
     // Too dense for the disc radius: fill with the closest-spaced rejects, deterministically.
     roots.extend(rejected.into_iter().take(n - roots.len()));
     let style = match p.style {
-        StyleSpec::Straight => Style::Straight,
+        StyleSpec::Straight | StyleSpec::Draped => Style::Straight,
         StyleSpec::Wavy { amplitude, period } => Style::Wavy { amplitude, period },
         StyleSpec::Curly { radius, pitch } => Style::Curly { radius, pitch },
     };
@@ -211,7 +264,10 @@ pub fn procedural(p: &ProceduralHair, seed: u64) -> Result<Hairstyle, HairError>
         });
         let dir = (normal * 0.35 + tangent).normalize();
         let frame = frame_along(&dir);
-        let points = style_points(root, &frame, &style, p.points as usize, p.length)?;
+        let mut points = style_points(root, &frame, &style, p.points as usize, p.length)?;
+        if p.style == StyleSpec::Draped {
+            drape(&mut points, DRAPE_CLEARANCE + 2.0 * p.strand_radius);
+        }
         strands.push(Strand {
             root,
             frame,
@@ -219,4 +275,54 @@ pub fn procedural(p: &ProceduralHair, seed: u64) -> Result<Hairstyle, HairError>
         });
     }
     Ok(Hairstyle { strands })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body::BodyModel;
+    use crate::scene::BodySpec;
+
+    /// Draped hair keeps the styled segment lengths, and every point past the root lies outside
+    /// the head body by at least a strand radius (straight hair from the same roots goes in).
+    #[test]
+    fn draped_hair_lies_outside_the_head_with_its_lengths() {
+        let body = BodyModel::from_spec(&BodySpec::Head { resolution: 64 }, Path::new("."))
+            .unwrap()
+            .unwrap();
+        let spec = |style| ProceduralHair {
+            strands: 400,
+            length: 0.3,
+            points: 12,
+            style,
+            scalp_min_height: -0.02,
+            ..ProceduralHair::default()
+        };
+        let draped = procedural(&spec(StyleSpec::Draped), 5).unwrap();
+        let straight = procedural(&spec(StyleSpec::Straight), 5).unwrap();
+        let radius = ProceduralHair::default().strand_radius;
+        let mut straight_inside = 0;
+        for (d, s) in draped.strands.iter().zip(&straight.strands) {
+            assert_eq!(d.root, s.root);
+            for (wd, ws) in d.points.windows(2).zip(s.points.windows(2)) {
+                let (ld, ls) = ((wd[1] - wd[0]).norm(), (ws[1] - ws[0]).norm());
+                assert!((ld - ls).abs() < 1e-5 * ls, "segment {ld} instead of {ls}");
+            }
+            for p in &d.points[1..] {
+                let (dist, _, _) = body.signed_distance(p).unwrap();
+                assert!(
+                    dist > radius,
+                    "draped point {p:?} at {dist} m from the body"
+                );
+            }
+            straight_inside += s.points[1..]
+                .iter()
+                .filter(|p| body.signed_distance(p).is_some_and(|(d, _, _)| d < 0.0))
+                .count();
+        }
+        assert!(
+            straight_inside > 0,
+            "the straight hair never enters the body"
+        );
+    }
 }

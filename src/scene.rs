@@ -275,6 +275,11 @@ impl Default for ProceduralHair {
 pub enum StyleSpec {
     /// Straight.
     Straight,
+    /// Straight hair combed over the procedural head: each segment in turn slides over the
+    /// scalp (and the neck and shoulders) at a small clearance and otherwise turns toward
+    /// straight down, so the hair starts close to where it comes to rest instead of falling
+    /// onto the head in the first frames.
+    Draped,
     /// A planar wave.
     Wavy {
         /// Amplitude (m).
@@ -698,7 +703,7 @@ impl Scene {
                 non_negative("hairstyle.parting_width", p.parting_width)?;
                 positive("hairstyle.strand_radius", p.strand_radius)?;
                 match p.style {
-                    StyleSpec::Straight => {}
+                    StyleSpec::Straight | StyleSpec::Draped => {}
                     StyleSpec::Wavy { amplitude, period } => {
                         non_negative("hairstyle.style.amplitude", amplitude)?;
                         positive("hairstyle.style.period", period)?;
