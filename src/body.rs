@@ -464,8 +464,8 @@ mod tests {
             < 1.0
     }
 
-    /// The head body is a union of a head, a neck tube and shoulders. Every point well inside
-    /// the head or the shoulders (the neck's junctions included, where interior walls once made
+    /// The head body joins a head, a neck tube and shoulders. Every point well inside the head,
+    /// the neck or the shoulders (the neck's junctions included, where interior walls once made
     /// the signed distance call deep points outside) is inside by the exact distance and by the
     /// distance field; every point well outside all three is outside.
     #[test]
@@ -481,8 +481,9 @@ mod tests {
                 rng.range(-0.35, 0.15),
                 rng.range(-0.15, 0.15),
             );
-            let deep = in_ellipsoid(HEAD, 0.9, &p) || in_ellipsoid(SHOULDERS, 0.9, &p);
             let neck = (p.x * p.x + p.z * p.z).sqrt();
+            let in_neck = neck < 0.9 * NECK && p.y < -0.05 && p.y > SHOULDERS.0[1];
+            let deep = in_ellipsoid(HEAD, 0.9, &p) || in_ellipsoid(SHOULDERS, 0.9, &p) || in_neck;
             let near_neck = neck < 1.1 * NECK && p.y < 0.0 && p.y > SHOULDERS.0[1];
             let clear =
                 !(in_ellipsoid(HEAD, 1.1, &p) || in_ellipsoid(SHOULDERS, 1.1, &p) || near_neck);

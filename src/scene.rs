@@ -171,7 +171,7 @@ pub enum BodySpec {
     None,
     /// The procedural head, neck and shoulders (metres, +y up, face +z, head centre at the origin).
     Head {
-        /// Mesh resolution: 96 gives about 50,000 triangles.
+        /// Mesh resolution: 96 gives about 53,000 triangles.
         resolution: u32,
     },
     /// An OBJ file, scaled then offset into metres.

@@ -104,7 +104,8 @@ pub struct Simulation {
     pair_list: Vec<[u32; 2]>,
     pair_responses: Vec<PairResponse>,
     body_nodes: Vec<BodyNode>,
-    touched: Vec<bool>,
+    /// Per skeleton, the first node the hard constraint moved in this pass (`u32::MAX`: none).
+    first_moved: Vec<u32>,
     body_hits: Vec<Option<(Real, Vector)>>,
     render: RenderGeometry,
     strand_node: Vec<u32>,
@@ -273,7 +274,7 @@ impl Simulation {
             pair_list: Vec::new(),
             pair_responses: Vec::new(),
             body_nodes: Vec::new(),
-            touched: Vec::new(),
+            first_moved: Vec::new(),
             body_hits: Vec::new(),
             render: RenderGeometry {
                 subdivisions: 3,
@@ -948,8 +949,9 @@ impl Simulation {
             self.corrections.clear();
             self.constraints.clear();
             deepest = 0.0;
-            self.touched.clear();
-            self.touched.resize(self.state.skeleton_count(), false);
+            self.first_moved.clear();
+            self.first_moved
+                .resize(self.state.skeleton_count(), u32::MAX);
             for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
                 let Some((d, n)) = hit else { continue };
                 deepest = deepest.max(-d);
@@ -990,7 +992,8 @@ impl Simulation {
                     node: bn.node,
                     delta: target - p,
                 });
-                self.touched[bn.skeleton as usize] = true;
+                let first = &mut self.first_moved[bn.skeleton as usize];
+                *first = (*first).min(bn.node);
             }
             if pass == 0 {
                 contacts = self.constraints.len();
@@ -1007,8 +1010,11 @@ impl Simulation {
             if done {
                 break;
             }
-            let touched = &self.touched;
-            self.body_nodes.retain(|bn| touched[bn.skeleton as usize]);
+            // The refit moves a skeleton's nodes from its first corrected one on; the nodes
+            // before it stay where this pass found them out of the body.
+            let first_moved = &self.first_moved;
+            self.body_nodes
+                .retain(|bn| bn.node >= first_moved[bn.skeleton as usize]);
         }
         Ok((contacts, deepest.max(0.0)))
     }

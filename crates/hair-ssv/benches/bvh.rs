@@ -1,5 +1,5 @@
 //! Criterion benches of the BVH (build, contacts, closest, batches) and the collision tables on
-//! the 50,000-triangle head-and-shoulders mesh.
+//! the 53,000-triangle head-and-shoulders mesh.
 
 use std::hint::black_box;
 

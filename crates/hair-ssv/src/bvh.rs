@@ -206,7 +206,10 @@ impl Bvh {
         while sp > 0 {
             sp -= 1;
             let node = &self.nodes[stack[sp] as usize];
-            if point.is_some_and(|p| box_distance_sq(&p, &node.lo, &node.hi) >= best_d2)
+            // (A relative margin keeps rounding in the box distance from pruning a triangle
+            // exactly as far as the best.)
+            if point
+                .is_some_and(|p| box_distance_sq(&p, &node.lo, &node.hi) * BOX_ROUNDING >= best_d2)
                 || node_lower_bound_sq(ssv, &node.rss) >= best_d2
             {
                 continue;
@@ -379,6 +382,10 @@ impl Bvh {
             .collect()
     }
 }
+
+/// Factor below 1 on a squared box distance before it rejects a node: far above the relative
+/// rounding of the distances compared.
+const BOX_ROUNDING: Real = 1.0 - 1e-4;
 
 /// Squared distance from `p` to the box `[lo, hi]` (0 inside).
 #[inline(always)]

@@ -1,7 +1,7 @@
 //! Procedural meshes for tests, benches and reports (not part of the stable API).
 //!
-//! [`head_and_shoulders`] merges a bumpy ellipsoid head, an open neck tube whose ends sit on
-//! the head's and the shoulders' surfaces, and a shoulder ellipsoid; metres, `+y` up, face `+z`.
+//! [`head_and_shoulders`] joins a bumpy ellipsoid head and a shoulder ellipsoid by a neck tube
+//! into one closed surface; metres, `+y` up, face `+z`.
 
 use std::f32::consts::{PI, TAU};
 
@@ -22,12 +22,8 @@ fn head_bump(theta: Real, phi: Real) -> Real {
         + 0.008 * (13.0 * theta + 1.0).sin() * (11.0 * phi).sin()
 }
 
-/// Appends a triangle, wound so its normal points away from `inside`, unless it lies inside
-/// the neck (the head's and the shoulders' caps there are interior after the merge).
+/// Appends a triangle, wound so its normal points away from `inside`.
 fn push_tri(tris: &mut Vec<[u32; 3]>, v: &[Point], t: [u32; 3], inside: &Point) {
-    if in_neck(v, t) {
-        return;
-    }
     let [a, b, c] = t.map(|i| v[i as usize]);
     let n = (b - a).cross(&(c - a));
     let centroid = Point::from((a.coords + b.coords + c.coords) / 3.0);
@@ -38,140 +34,163 @@ fn push_tri(tris: &mut Vec<[u32; 3]>, v: &[Point], t: [u32; 3], inside: &Point) 
     }
 }
 
-/// Whether `p` is inside the neck tube between the shoulders and the head, where the merge
-/// leaves fragments of the caps: samplers of "points near the surface" skip it.
+/// Whether `p` is inside the neck tube between the shoulders and the head: samplers of "points
+/// near the surface" skip it.
 pub fn inside_neck(p: &Point) -> bool {
     p.x * p.x + p.z * p.z < NECK_RADIUS * NECK_RADIUS && p.y < HEAD.0[1] && p.y > SHOULDERS.0[1]
 }
 
-/// Whether a triangle lies inside the neck tube (interior geometry the merge removes).
-fn in_neck(v: &[Point], t: [u32; 3]) -> bool {
-    t.iter().all(|&i| inside_neck(&v[i as usize]))
+/// A point of a bumpy ellipsoid at azimuth `theta` and polar angle `phi` (from `+y`).
+fn ellipsoid_point(
+    (c, r): ([Real; 3], [Real; 3]),
+    bump: &impl Fn(Real, Real) -> Real,
+    theta: Real,
+    phi: Real,
+) -> Point {
+    let k = bump(theta, phi);
+    Point::new(
+        c[0] + r[0] * phi.sin() * theta.cos() * k,
+        c[1] + r[1] * phi.cos() * k,
+        c[2] + r[2] * phi.sin() * theta.sin() * k,
+    )
 }
 
-#[allow(clippy::too_many_arguments, reason = "a private generator")]
-fn ellipsoid(
-    center: [Real; 3],
-    radii: [Real; 3],
-    n_theta: usize,
-    n_phi: usize,
-    bump: impl Fn(Real, Real) -> Real,
-    v: &mut Vec<Point>,
-    tris: &mut Vec<[u32; 3]>,
-) {
-    let c = Point::from(center);
-    let at = |theta: Real, phi: Real| {
-        let k = bump(theta, phi);
-        c + Vector::new(
-            radii[0] * phi.sin() * theta.cos() * k,
-            radii[1] * phi.cos() * k,
-            radii[2] * phi.sin() * theta.sin() * k,
-        )
-    };
-    let top = v.len() as u32;
-    v.push(at(0.0, 0.0));
-    let ring0 = v.len() as u32;
-    for k in 1..n_phi {
-        let phi = PI * k as Real / n_phi as Real;
-        for i in 0..n_theta {
-            v.push(at(TAU * i as Real / n_theta as Real, phi));
-        }
-    }
-    let bottom = v.len() as u32;
-    v.push(at(0.0, PI));
-    let nt = n_theta as u32;
-    let idx = |k: u32, i: u32| ring0 + k * nt + (i % nt);
-    for i in 0..nt {
-        push_tri(tris, v, [top, idx(0, i), idx(0, i + 1)], &c);
-        push_tri(
-            tris,
-            v,
-            [
-                bottom,
-                idx(n_phi as u32 - 2, i + 1),
-                idx(n_phi as u32 - 2, i),
-            ],
-            &c,
-        );
-    }
-    for k in 0..n_phi as u32 - 2 {
-        for i in 0..nt {
-            push_tri(tris, v, [idx(k, i), idx(k + 1, i), idx(k + 1, i + 1)], &c);
-            push_tri(tris, v, [idx(k, i), idx(k + 1, i + 1), idx(k, i + 1)], &c);
-        }
-    }
-}
-
-/// Height of the lower half of an ellipsoid (`sign = -1`) or upper half (`+1`) above `(x, z)`.
-fn ellipsoid_y(e: ([Real; 3], [Real; 3]), x: Real, z: Real, sign: Real) -> Real {
-    let (c, r) = e;
-    let q = 1.0 - ((x - c[0]) / r[0]).powi(2) - ((z - c[2]) / r[2]).powi(2);
-    c[1] + sign * r[1] * q.max(0.0).sqrt()
-}
-
-/// Height of the bumpy head's lower surface above `(x, z)` (inside its outline), by bisection
-/// on the radial test `|p / radii| < head_bump(theta, phi)` used to build it.
-fn bumpy_head_bottom(x: Real, z: Real) -> Real {
-    let (c, r) = HEAD;
-    let inside = |y: Real| {
-        let u = Vector::new((x - c[0]) / r[0], (y - c[1]) / r[1], (z - c[2]) / r[2]);
-        let rho = u.norm();
-        let phi = (u.y / rho).clamp(-1.0, 1.0).acos();
-        let theta = u.z.atan2(u.x).rem_euclid(TAU);
-        rho < head_bump(theta, phi)
-    };
-    // The centre is inside; a point two semi-axes below it is outside.
-    let (mut lo, mut hi) = (c[1] - 2.0 * r[1], c[1]);
+/// The polar angle in `[lo, hi]` at which the ellipsoid at azimuth `theta` meets the neck
+/// cylinder (`x^2 + z^2 = NECK_RADIUS^2`), by bisection: the distance from the axis grows from
+/// `lo` to `hi` when `rising`, else falls.
+fn neck_phi(
+    e: ([Real; 3], [Real; 3]),
+    bump: &impl Fn(Real, Real) -> Real,
+    theta: Real,
+    (mut lo, mut hi): (Real, Real),
+    rising: bool,
+) -> Real {
     for _ in 0..40 {
         let mid = 0.5 * (lo + hi);
-        if inside(mid) {
+        let p = ellipsoid_point(e, bump, theta, mid);
+        let outside = p.x.hypot(p.z) > NECK_RADIUS;
+        if outside == rising {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    hi
+    0.5 * (lo + hi)
+}
+
+/// Appends the part of a bumpy ellipsoid outside the neck cylinder: `rows` rings from the pole
+/// (`top`: the `+y` pole, else the `-y` one) to the ring where the surface meets the neck, each
+/// of `n_theta` points at the azimuths `2 pi i / n_theta`. Returns the index of the first
+/// vertex of the neck ring.
+#[allow(clippy::too_many_arguments, reason = "a private generator")]
+fn ellipsoid_to_neck(
+    e: ([Real; 3], [Real; 3]),
+    bump: impl Fn(Real, Real) -> Real,
+    n_theta: usize,
+    rows: usize,
+    top: bool,
+    v: &mut Vec<Point>,
+    tris: &mut Vec<[u32; 3]>,
+) -> u32 {
+    let centre = Point::from(e.0);
+    let theta = |i: usize| TAU * i as Real / n_theta as Real;
+    // The pole, then rings toward the neck; the polar angle of ring `k` runs from the pole to
+    // the neck ring at each azimuth.
+    // The neck is on the far side from the pole, where the distance from the axis falls
+    // toward the `-y` pole and rises away from it.
+    let (pole_phi, range) = if top {
+        (0.0, (0.5 * PI, PI))
+    } else {
+        (PI, (0.0, 0.5 * PI))
+    };
+    let neck: Vec<Real> = (0..n_theta)
+        .map(|i| neck_phi(e, &bump, theta(i), range, !top))
+        .collect();
+    let pole = v.len() as u32;
+    v.push(ellipsoid_point(e, &bump, 0.0, pole_phi));
+    let ring0 = v.len() as u32;
+    for k in 1..=rows {
+        let f = k as Real / rows as Real;
+        for (i, &to) in neck.iter().enumerate() {
+            let phi = pole_phi + (to - pole_phi) * f;
+            v.push(ellipsoid_point(e, &bump, theta(i), phi));
+        }
+    }
+    let nt = n_theta as u32;
+    let idx = |k: u32, i: u32| ring0 + k * nt + (i % nt);
+    for i in 0..nt {
+        push_tri(tris, v, [pole, idx(0, i), idx(0, i + 1)], &centre);
+    }
+    for k in 0..rows as u32 - 1 {
+        for i in 0..nt {
+            push_tri(
+                tris,
+                v,
+                [idx(k, i), idx(k + 1, i), idx(k + 1, i + 1)],
+                &centre,
+            );
+            push_tri(
+                tris,
+                v,
+                [idx(k, i), idx(k + 1, i + 1), idx(k, i + 1)],
+                &centre,
+            );
+        }
+    }
+    idx(rows as u32 - 1, 0)
 }
 
 /// The head-and-shoulders mesh: vertices and counter-clockwise (outward) triangles.
-/// `resolution` 96 gives about 50,000 triangles; 24 about 3,000.
+/// `resolution` 96 gives about 53,000 triangles; 24 about 4,000.
+///
+/// One closed surface: the head and the shoulders stop where they meet the neck cylinder, and
+/// the neck tube joins their rings vertex to vertex, so no triangle lies inside the body and the
+/// side of a point is that of its closest face everywhere. (Overlapping closed parts, or a tube
+/// whose ends poke into them, leave interior walls that call deep points outside.)
 pub fn head_and_shoulders(resolution: usize) -> (Vec<Point>, Vec<[u32; 3]>) {
     let res = resolution.max(8);
     let mut v = Vec::new();
     let mut tris = Vec::new();
-    ellipsoid(HEAD.0, HEAD.1, 2 * res, res, head_bump, &mut v, &mut tris);
-    ellipsoid(
-        SHOULDERS.0,
-        SHOULDERS.1,
-        4 * res / 3,
-        res / 2,
+    let n_theta = 2 * res;
+    let head_ring = ellipsoid_to_neck(HEAD, head_bump, n_theta, res, true, &mut v, &mut tris);
+    let shoulder_ring = ellipsoid_to_neck(
+        SHOULDERS,
         |_, _| 1.0,
+        n_theta,
+        (res / 3).max(2),
+        false,
         &mut v,
         &mut tris,
     );
-    // The neck tube ends on the head's and the shoulders' surfaces. Ends pushed inside them
-    // would be interior walls: the closest triangle to a point deep in the shoulders is then
-    // often the tube's outward-facing stub, and the signed distance calls the point outside.
-    let around = (2 * res / 3).max(8);
+    // The neck: rings from the shoulders' neck ring up to the head's, the ends shared.
     let rings = 12;
-    let base = v.len() as u32;
-    for k in 0..rings {
+    let nt = n_theta as u32;
+    let mut starts = vec![shoulder_ring];
+    for k in 1..rings - 1 {
+        starts.push(v.len() as u32);
         let f = k as Real / (rings - 1) as Real;
-        for i in 0..around {
-            let theta = TAU * i as Real / around as Real;
-            let (x, z) = (NECK_RADIUS * theta.cos(), NECK_RADIUS * theta.sin());
-            let y_low = ellipsoid_y(SHOULDERS, x, z, 1.0);
-            let y_high = bumpy_head_bottom(x, z);
-            v.push(Point::new(x, y_low + (y_high - y_low) * f, z));
+        for i in 0..nt {
+            let (a, b) = (v[(shoulder_ring + i) as usize], v[(head_ring + i) as usize]);
+            v.push(a + (b - a) * f);
         }
     }
-    let a = around as u32;
-    for k in 0..rings as u32 - 1 {
-        for i in 0..a {
-            let p = |kk: u32, ii: u32| base + kk * a + (ii % a);
-            let mid = Point::new(0.0, v[p(k, i) as usize].y, 0.0);
-            push_tri(&mut tris, &v, [p(k, i), p(k + 1, i), p(k + 1, i + 1)], &mid);
-            push_tri(&mut tris, &v, [p(k, i), p(k + 1, i + 1), p(k, i + 1)], &mid);
+    starts.push(head_ring);
+    let at = |k: usize, i: u32| starts[k] + i % nt;
+    for k in 0..rings - 1 {
+        for i in 0..nt {
+            let mid = Point::new(0.0, v[at(k, i) as usize].y, 0.0);
+            push_tri(
+                &mut tris,
+                &v,
+                [at(k, i), at(k + 1, i), at(k + 1, i + 1)],
+                &mid,
+            );
+            push_tri(
+                &mut tris,
+                &v,
+                [at(k, i), at(k + 1, i + 1), at(k, i + 1)],
+                &mid,
+            );
         }
     }
     (v, tris)

@@ -163,6 +163,6 @@ fn body_map_error_against_the_exact_mesh_distance() {
     let mean = errs.iter().sum::<Real>() / errs.len() as Real;
     let p95 = errs[errs.len() * 95 / 100];
     assert!(errs.len() > 1500, "coverage {}", errs.len());
-    // a coarse mesh (3,000 triangles) and 64 x 64 tables: well under a millimetre on average
+    // a coarse mesh (6,700 triangles) and 64 x 64 tables: well under a millimetre on average
     assert!(mean < 1e-3 && p95 < 3e-3, "mean {mean} p95 {p95}");
 }
