@@ -7,7 +7,8 @@ use crate::fit::fit_rss_iter;
 use crate::query::rectangle_rectangle::rectangle_rectangle_lower_bound;
 use crate::query::segment_rectangle::segment_rectangle_lower_bound;
 use crate::query::separation::{rect_support, rect_support_min};
-use crate::query::{Closest, point_rectangle};
+
+use crate::query::{Closest, point_rectangle, point_triangle};
 use crate::{Contact, Point, Real, Rss, Ssv, SsvError, Vector};
 
 /// Triangles per leaf.
@@ -27,6 +28,16 @@ pub(crate) struct Node {
     /// child is the next node and `first` is the right child.
     pub(crate) first: u32,
     pub(crate) count: u32,
+}
+
+/// A node's axis-aligned box and children (see [`Node`]), for point queries.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+struct BoxNode {
+    lo: [Real; 3],
+    first: u32,
+    hi: [Real; 3],
+    count: u32,
 }
 
 /// The triangle of a mesh closest to a volume.
@@ -73,6 +84,9 @@ impl ContactBatch {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     pub(crate) nodes: Vec<Node>,
+    /// The nodes' boxes and children alone, in the same order: point queries read only these
+    /// (a third of a node's bytes).
+    boxes: Vec<BoxNode>,
     /// Triangles in leaf order.
     pub(crate) tris: Vec<[Point; 3]>,
     /// Per triangle in leaf order: axis-aligned bounds.
@@ -155,8 +169,18 @@ impl Bvh {
                     .unwrap_or_else(Vector::z)
             })
             .collect();
+        let boxes = nodes
+            .iter()
+            .map(|n| BoxNode {
+                lo: [n.lo.x, n.lo.y, n.lo.z],
+                first: n.first,
+                hi: [n.hi.x, n.hi.y, n.hi.z],
+                count: n.count,
+            })
+            .collect();
         Ok(Self {
             nodes,
+            boxes,
             tris,
             tri_bounds,
             tri_normals,
@@ -193,25 +217,17 @@ impl Bvh {
     /// The triangle closest to `ssv`'s core, with its signed distance; `None` only for an
     /// empty hierarchy (which [`Bvh::new`] never builds).
     pub fn closest(&self, ssv: &Ssv) -> Option<MeshClosest> {
+        if let Ssv::Point(p) = ssv {
+            return self.closest_to_point(&p.center, p.radius);
+        }
         let mut best: Option<(u32, Closest)> = None;
         let mut best_d2 = Real::INFINITY;
         let mut stack = [0u32; 128];
         let mut sp = 1usize;
-        // A point is tested against the node's box first: six comparisons where the RSS bound
-        // projects onto the node's rectangle.
-        let point = match ssv {
-            Ssv::Point(p) => Some(p.center),
-            _ => None,
-        };
         while sp > 0 {
             sp -= 1;
             let node = &self.nodes[stack[sp] as usize];
-            // (A relative margin keeps rounding in the box distance from pruning a triangle
-            // exactly as far as the best.)
-            if point
-                .is_some_and(|p| box_distance_sq(&p, &node.lo, &node.hi) * BOX_ROUNDING >= best_d2)
-                || node_lower_bound_sq(ssv, &node.rss) >= best_d2
-            {
+            if node_lower_bound_sq(ssv, &node.rss) >= best_d2 {
                 continue;
             }
             if node.count > 0 {
@@ -251,6 +267,69 @@ impl Bvh {
             triangle,
             closest,
             distance: closest.distance() - ssv.radius(),
+        })
+    }
+
+    /// [`Bvh::closest`] for a point (core `p`, radius `radius`): the same search over the
+    /// nodes' boxes alone, nearer child first. Boxes are looser than the nodes' RSS for curved
+    /// patches but cost six comparisons, and they sit in a third of the memory.
+    fn closest_to_point(&self, p: &Point, radius: Real) -> Option<MeshClosest> {
+        let q = [p.x, p.y, p.z];
+        let box_d2 = |b: &BoxNode| {
+            let mut d2 = 0.0;
+            for k in 0..3 {
+                let e = (b.lo[k] - q[k]).max(q[k] - b.hi[k]).max(0.0);
+                d2 += e * e;
+            }
+            // A relative margin keeps rounding in the box distance from pruning a triangle
+            // exactly as far as the best.
+            d2 * BOX_ROUNDING
+        };
+        let mut best: Option<(u32, Closest)> = None;
+        let mut best_d2 = Real::INFINITY;
+        let mut stack = [(0u32, 0.0 as Real); 128];
+        let mut sp = 1usize;
+        while sp > 0 {
+            sp -= 1;
+            let (index, bound) = stack[sp];
+            if bound >= best_d2 {
+                continue;
+            }
+            let node = &self.boxes[index as usize];
+            if node.count > 0 {
+                let start = node.first as usize;
+                for k in start..start + node.count as usize {
+                    let c = point_triangle(p, &self.tris[k]);
+                    if c.dist_sq < best_d2
+                        || (c.dist_sq == best_d2
+                            && best.is_some_and(|(id, _)| self.tri_ids[k] < id))
+                    {
+                        best_d2 = c.dist_sq;
+                        best = Some((self.tri_ids[k], c));
+                    }
+                }
+            } else {
+                let (left, right) = (index + 1, node.first);
+                let dl = box_d2(&self.boxes[left as usize]);
+                let dr = box_d2(&self.boxes[right as usize]);
+                // The farther pushed first, so the nearer is visited first.
+                let (far, near) = if dl <= dr {
+                    ((right, dr), (left, dl))
+                } else {
+                    ((left, dl), (right, dr))
+                };
+                if sp + 2 > stack.len() {
+                    return self.closest_brute(&Ssv::Point(crate::Pss::new(*p, radius)));
+                }
+                stack[sp] = far;
+                stack[sp + 1] = near;
+                sp += 2;
+            }
+        }
+        best.map(|(triangle, closest)| MeshClosest {
+            triangle,
+            closest,
+            distance: closest.distance() - radius,
         })
     }
 
@@ -386,17 +465,6 @@ impl Bvh {
 /// Factor below 1 on a squared box distance before it rejects a node: far above the relative
 /// rounding of the distances compared.
 const BOX_ROUNDING: Real = 1.0 - 1e-4;
-
-/// Squared distance from `p` to the box `[lo, hi]` (0 inside).
-#[inline(always)]
-fn box_distance_sq(p: &Point, lo: &Point, hi: &Point) -> Real {
-    let mut d2 = 0.0;
-    for k in 0..3 {
-        let e = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
-        d2 += e * e;
-    }
-    d2
-}
 
 #[inline(always)]
 fn aabb_overlap(alo: &Point, ahi: &Point, blo: &Point, bhi: &Point) -> bool {
