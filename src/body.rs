@@ -30,6 +30,24 @@ pub struct BodyModel {
     pub near: NearField,
     /// Signed distances sampled on a fine grid, filled on first use.
     pub field: DistanceField,
+    /// Whether every edge joins exactly two triangles wound opposite ways: a closed surface,
+    /// whose signed distance changes no faster than the point moves.
+    pub closed: bool,
+}
+
+/// Whether `triangles` form a closed, consistently wound surface: each directed edge appears
+/// once and its reverse once.
+pub fn is_closed(triangles: &[[u32; 3]]) -> bool {
+    let mut edges: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    edges.sort_unstable();
+    let unique = edges.windows(2).all(|w| w[0] != w[1]);
+    unique
+        && edges
+            .iter()
+            .all(|&(a, b)| edges.binary_search(&(b, a)).is_ok())
 }
 
 /// Samples of the body's signed distance at the vertices of a regular grid (about 4 million
@@ -262,7 +280,10 @@ pub struct NearField {
     min: Point,
     cell: Real,
     dims: [usize; 3],
-    near: Vec<bool>,
+    /// Exact signed distance at each cell's centre (`-inf` where the query has no answer).
+    centre: Vec<Real>,
+    /// Cells whose centre is at most this far out may hold points within the margin.
+    reach: Real,
 }
 
 impl NearField {
@@ -289,7 +310,7 @@ impl NearField {
             (ext.z / cell).ceil() as usize + 1,
         ];
         let reach = 0.5 * cell * 3f32.sqrt() + margin;
-        let near = (0..dims[0] * dims[1] * dims[2])
+        let centre = (0..dims[0] * dims[1] * dims[2])
             .into_par_iter()
             .map(|k| {
                 let (x, y, z) = (
@@ -298,32 +319,57 @@ impl NearField {
                     k / (dims[0] * dims[1]),
                 );
                 let c = lo + Vector::new(x as Real + 0.5, y as Real + 0.5, z as Real + 0.5) * cell;
-                body.signed_distance(&c).is_none_or(|(d, _, _)| d <= reach)
+                body.signed_distance(&c)
+                    .map_or(Real::NEG_INFINITY, |(d, _, _)| d)
             })
             .collect();
         Self {
             min: lo,
             cell,
             dims,
-            near,
+            centre,
+            reach,
+        }
+    }
+
+    /// The cell holding `p`: its index and centre, or `None` outside the grid.
+    #[inline]
+    fn cell_of(&self, p: &Point) -> Option<(usize, Point)> {
+        let q = (p - self.min) / self.cell;
+        if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
+            return None;
+        }
+        let (x, y, z) = (q.x as usize, q.y as usize, q.z as usize);
+        if x >= self.dims[0] || y >= self.dims[1] || z >= self.dims[2] {
+            return None;
+        }
+        let c =
+            self.min + Vector::new(x as Real + 0.5, y as Real + 0.5, z as Real + 0.5) * self.cell;
+        Some((x + self.dims[0] * (y + self.dims[1] * z), c))
+    }
+
+    /// A lower bound of the exact signed distance at `p`: the distance at its cell's centre less
+    /// how far `p` is from it (the distance to a closed surface changes no faster than the
+    /// point moves). `-inf` where unknown, `+inf` outside the grid (farther than the margin).
+    #[inline]
+    pub fn lower_bound(&self, p: &Point) -> Real {
+        if self.centre.is_empty() {
+            return Real::NEG_INFINITY;
+        }
+        match self.cell_of(p) {
+            Some((k, c)) => self.centre[k] - (p - c).norm(),
+            None => Real::INFINITY,
         }
     }
 
     /// Whether `p` may lie within the margin of the body (or inside it).
     #[inline]
     pub fn is_near(&self, p: &Point) -> bool {
-        if self.near.is_empty() {
+        if self.centre.is_empty() {
             return true;
         }
-        let q = (p - self.min) / self.cell;
-        if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
-            return false;
-        }
-        let (x, y, z) = (q.x as usize, q.y as usize, q.z as usize);
-        if x >= self.dims[0] || y >= self.dims[1] || z >= self.dims[2] {
-            return false;
-        }
-        self.near[x + self.dims[0] * (y + self.dims[1] * z)]
+        self.cell_of(p)
+            .is_some_and(|(k, _)| self.centre[k] <= self.reach)
     }
 }
 
@@ -376,6 +422,7 @@ impl BodyModel {
             None
         };
         let field = DistanceField::new(&vertices, 2.0 * NEAR_MARGIN, FIELD_SAMPLES);
+        let closed = is_closed(&triangles);
         let mut body = Self {
             vertices,
             triangles,
@@ -383,6 +430,7 @@ impl BodyModel {
             maps,
             near: NearField::default(),
             field,
+            closed,
         };
         body.near = NearField::build(&body, NEAR_MARGIN);
         Ok(Some(body))
@@ -392,6 +440,31 @@ impl BodyModel {
     /// closest surface point, by the exact BVH query.
     pub fn signed_distance(&self, p: &Point) -> Option<(Real, Vector, Point)> {
         exact_signed_distance(&self.bvh, p)
+    }
+
+    /// [`BodyModel::distance`] where it may be below `reach`, else `None`: points that the
+    /// near field's lower bound, less the method's own error, already puts `reach` or farther
+    /// away are not queried (and fill no samples of the distance field). The answers below
+    /// `reach` are the same as [`BodyModel::distance`]'s. (The bound holds for a closed surface
+    /// only: an open mesh, or `Maps`, whose tables have no stated error, is always queried.)
+    #[inline]
+    pub fn distance_within(
+        &self,
+        method: crate::scene::CollisionMethod,
+        p: &Point,
+        reach: Real,
+    ) -> Option<(Real, Vector)> {
+        use crate::scene::CollisionMethod;
+        let error = match method {
+            // A field value is a convex combination of exact samples within a cell diagonal.
+            CollisionMethod::Field => self.field.spacing() * 3f32.sqrt() * 1.001,
+            CollisionMethod::Bvh => 0.0,
+            CollisionMethod::Maps => Real::INFINITY,
+        };
+        if self.closed && self.near.lower_bound(p) - error - 1e-6 >= reach {
+            return None;
+        }
+        self.distance(method, p)
     }
 
     /// Signed distance and outward normal by `method`, or `None` when `p` is farther than
@@ -507,4 +580,52 @@ mod tests {
     }
 
     const NECK: Real = hair_ssv::test_meshes::NECK_RADIUS;
+
+    /// The procedural head and the torus are closed surfaces (an open one is not), and on a
+    /// closed one the near field's lower bound never exceeds the exact signed distance, so
+    /// `distance_within` skips only points the query would put beyond its reach.
+    #[test]
+    fn near_field_bounds_the_distance_of_closed_bodies() {
+        let head = BodyModel::from_spec(&BodySpec::Head { resolution: 32 }, Path::new("."))
+            .unwrap()
+            .unwrap();
+        assert!(head.closed);
+        let torus = BodyModel::from_spec(
+            &BodySpec::Torus {
+                center: [0.0, 0.0, 0.0],
+                major: 0.1,
+                minor: 0.03,
+                wrinkles: 8,
+                depth: 0.2,
+            },
+            Path::new("."),
+        )
+        .unwrap()
+        .unwrap();
+        assert!(torus.closed);
+        assert!(!is_closed(&head.triangles[1..]));
+        let mut rng = SplitMix(3);
+        let mut skipped = 0;
+        for body in [&head, &torus] {
+            for _ in 0..4000 {
+                let (q, _) = rng.surface_point(body.bvh.triangles(), 0.0);
+                let off = Vector::new(
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                );
+                let p = q + off * 0.03;
+                let exact = body.signed_distance(&p).unwrap().0;
+                assert!(body.near.lower_bound(&p) <= exact + 1e-5, "{p:?}");
+                for method in [CollisionMethod::Bvh, CollisionMethod::Field] {
+                    let reach = 0.004;
+                    let within = body.distance_within(method, &p, reach);
+                    let full = body.distance(method, &p).filter(|(d, _)| *d < reach);
+                    assert_eq!(within.filter(|(d, _)| *d < reach), full, "{p:?} {method:?}");
+                    skipped += usize::from(within.is_none() && body.distance(method, &p).is_some());
+                }
+            }
+        }
+        assert!(skipped > 1000, "{skipped} queries skipped");
+    }
 }

@@ -942,7 +942,7 @@ impl Simulation {
             self.body_nodes
                 .par_iter()
                 .map(|bn| {
-                    body.distance(method, &positions[bn.node as usize])
+                    body.distance_within(method, &positions[bn.node as usize], bn.radius)
                         .filter(|(d, _)| *d < bn.radius)
                 })
                 .collect_into_vec(&mut self.body_hits);
