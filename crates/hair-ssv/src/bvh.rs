@@ -231,17 +231,13 @@ impl Bvh {
                 continue;
             }
             if node.count > 0 {
-                let start = node.first as usize;
-                for k in start..start + node.count as usize {
-                    let c = ssv.closest_to_triangle(&self.tris[k]);
-                    if c.dist_sq < best_d2
-                        || (c.dist_sq == best_d2
-                            && best.is_some_and(|(id, _)| self.tri_ids[k] < id))
-                    {
-                        best_d2 = c.dist_sq;
-                        best = Some((self.tri_ids[k], c));
-                    }
-                }
+                let leaf = node.first as usize..(node.first + node.count) as usize;
+                self.scan_leaf(
+                    leaf,
+                    |t| ssv.closest_to_triangle(t),
+                    &mut best,
+                    &mut best_d2,
+                );
             } else {
                 let left = stack[sp] + 1;
                 let right = node.first;
@@ -297,17 +293,8 @@ impl Bvh {
             }
             let node = &self.boxes[index as usize];
             if node.count > 0 {
-                let start = node.first as usize;
-                for k in start..start + node.count as usize {
-                    let c = point_triangle(p, &self.tris[k]);
-                    if c.dist_sq < best_d2
-                        || (c.dist_sq == best_d2
-                            && best.is_some_and(|(id, _)| self.tri_ids[k] < id))
-                    {
-                        best_d2 = c.dist_sq;
-                        best = Some((self.tri_ids[k], c));
-                    }
-                }
+                let leaf = node.first as usize..(node.first + node.count) as usize;
+                self.scan_leaf(leaf, |t| point_triangle(p, t), &mut best, &mut best_d2);
             } else {
                 let (left, right) = (index + 1, node.first);
                 let dl = box_d2(&self.boxes[left as usize]);
@@ -331,6 +318,27 @@ impl Bvh {
             closest,
             distance: closest.distance() - radius,
         })
+    }
+
+    /// The triangles of a leaf (`leaf`, in leaf order) against the best so far: a nearer one, or
+    /// one as near with a lower input index, replaces it.
+    #[inline(always)]
+    fn scan_leaf(
+        &self,
+        leaf: std::ops::Range<usize>,
+        closest: impl Fn(&[Point; 3]) -> Closest,
+        best: &mut Option<(u32, Closest)>,
+        best_d2: &mut Real,
+    ) {
+        for k in leaf {
+            let c = closest(&self.tris[k]);
+            let id = self.tri_ids[k];
+            if c.dist_sq < *best_d2 || (c.dist_sq == *best_d2 && best.is_some_and(|(b, _)| id < b))
+            {
+                *best_d2 = c.dist_sq;
+                *best = Some((id, c));
+            }
+        }
     }
 
     fn closest_brute(&self, ssv: &Ssv) -> Option<MeshClosest> {
