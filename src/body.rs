@@ -528,6 +528,8 @@ mod tests {
     use crate::scene::CollisionMethod;
     use hair_ssv::test_meshes::{HEAD, SHOULDERS, SplitMix};
 
+    const NECK: Real = hair_ssv::test_meshes::NECK_RADIUS;
+
     /// Whether `p` lies inside the ellipsoid `e` shrunk to `scale` of its semi-axes.
     fn in_ellipsoid(e: ([Real; 3], [Real; 3]), scale: Real, p: &Point) -> bool {
         let (c, r) = e;
@@ -578,8 +580,6 @@ mod tests {
             outside += usize::from(clear);
         }
     }
-
-    const NECK: Real = hair_ssv::test_meshes::NECK_RADIUS;
 
     /// The procedural head and the torus are closed surfaces (an open one is not), and on a
     /// closed one the near field's lower bound never exceeds the exact signed distance, so

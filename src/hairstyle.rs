@@ -19,8 +19,8 @@ const DRAPE_CLEARANCE: Real = 0.004;
 /// Lays a straight strand (`points`, root first) over the procedural head: root to tip, each
 /// segment keeps its length and direction, turned toward straight down by its length over
 /// [`DRAPE_TURN`], and a point that would lie within `clearance` of the scalp, the neck or the
-/// shoulders is moved out onto that margin along the part's radius (then back to the segment's
-/// length, twice).
+/// shoulders is moved out onto that margin along the part's radius, then back to the segment's
+/// length (three times).
 fn drape(points: &mut [Point], clearance: Real) {
     use hair_ssv::test_meshes::{NECK_RADIUS, SHOULDERS};
     let out_of = |q: Point| -> Point {
@@ -52,11 +52,10 @@ fn drape(points: &mut [Point], clearance: Real) {
             .try_normalize(1e-9)
             .unwrap_or(d);
         let from = points[k];
-        let mut q = out_of(from + d * len);
-        for _ in 0..2 {
-            q = out_of(from + (q - from).try_normalize(1e-9).unwrap_or(d) * len);
+        let mut q = from + d * len;
+        for _ in 0..3 {
+            q = from + (out_of(q) - from).try_normalize(1e-9).unwrap_or(d) * len;
         }
-        let q = from + (q - from).try_normalize(1e-9).unwrap_or(d) * len;
         dir = (q - from).try_normalize(1e-9);
         points[k + 1] = q;
     }

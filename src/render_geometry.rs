@@ -54,17 +54,14 @@ pub(crate) fn catmull_rom(control: &[Point], sub: usize, out: &mut Vec<Point>) {
     catmull_rom_each(control, sub, |p| out.push(p));
 }
 
-/// [`catmull_rom`] into a slice, from its start; points past its end are dropped. Returns the
-/// number of points of the curve (`sub * (control.len() - 1) + 1`, or `control.len()`).
-pub(crate) fn catmull_rom_into(control: &[Point], sub: usize, out: &mut [Point]) -> usize {
-    let mut k = 0;
+/// [`catmull_rom`] into a slice, from its start; points past its end are dropped.
+pub(crate) fn catmull_rom_into(control: &[Point], sub: usize, out: &mut [Point]) {
+    let mut slots = out.iter_mut();
     catmull_rom_each(control, sub, |p| {
-        if let Some(o) = out.get_mut(k) {
+        if let Some(o) = slots.next() {
             *o = p;
         }
-        k += 1;
     });
-    k
 }
 
 /// The points of the Catmull-Rom curve through `control`, `sub` per segment, in order.

@@ -649,6 +649,7 @@ impl Simulation {
         // 3. Grid over the front's segments (head frame, where the body is static).
         self.sections.clear();
         self.section_node.clear();
+        self.section_tangent.clear();
         for &node in &self.front_nodes {
             let r = self.state.nodes(SkeletonId(node));
             let p = self.state.positions();
@@ -661,6 +662,11 @@ impl Simulation {
                     shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
                 });
                 self.section_node.push(i as u32);
+                self.section_tangent.push(
+                    (p[i] - p[i - 1])
+                        .try_normalize(0.0)
+                        .unwrap_or_else(Vector::zeros),
+                );
             }
         }
         self.grid.rebuild(&self.sections)?;
@@ -731,15 +737,12 @@ impl Simulation {
             self.pair_list.clear();
             self.pair_list.extend(self.pairs.iter());
             let cos_parallel = self.scene.collision.parallel_angle.cos();
-            let sections = &self.sections;
-            self.section_tangent.clear();
-            self.section_tangent
-                .extend(sections.iter().map(|s| match &s.shape {
-                    Ssv::Line(l) => (l.b - l.a).try_normalize(0.0).unwrap_or_else(Vector::zeros),
-                    _ => Vector::zeros(),
-                }));
-            let (section_node, tangent, state) =
-                (&self.section_node, &self.section_tangent, &self.state);
+            let (sections, section_node, tangent, state) = (
+                &self.sections,
+                &self.section_node,
+                &self.section_tangent,
+                &self.state,
+            );
             self.pair_list
                 .par_iter()
                 .map(|&[a, b]| {

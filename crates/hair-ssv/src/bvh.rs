@@ -7,7 +7,6 @@ use crate::fit::fit_rss_iter;
 use crate::query::rectangle_rectangle::rectangle_rectangle_lower_bound;
 use crate::query::segment_rectangle::segment_rectangle_lower_bound;
 use crate::query::separation::{rect_support, rect_support_min};
-
 use crate::query::{Closest, point_rectangle, point_triangle};
 use crate::{Contact, Point, Real, Rss, Ssv, SsvError, Vector};
 

@@ -34,6 +34,25 @@ fn push_tri(tris: &mut Vec<[u32; 3]>, v: &[Point], t: [u32; 3], inside: &Point) 
     }
 }
 
+/// Appends the triangles between two rings of `nt` consecutive vertices each (from `lower` and
+/// `upper`, the same azimuths), wound away from `inside` (given the height of the triangle's
+/// first vertex).
+fn push_band(
+    tris: &mut Vec<[u32; 3]>,
+    v: &[Point],
+    lower: u32,
+    upper: u32,
+    nt: u32,
+    inside: impl Fn(Real) -> Point,
+) {
+    let (a, b) = (|i: u32| lower + i % nt, |i: u32| upper + i % nt);
+    for i in 0..nt {
+        let inside = inside(v[a(i) as usize].y);
+        push_tri(tris, v, [a(i), b(i), b(i + 1)], &inside);
+        push_tri(tris, v, [a(i), b(i + 1), a(i + 1)], &inside);
+    }
+}
+
 /// Whether `p` is inside the neck tube between the shoulders and the head: samplers of "points
 /// near the surface" skip it.
 pub fn inside_neck(p: &Point) -> bool {
@@ -95,9 +114,8 @@ fn ellipsoid_to_neck(
     let centre = Point::from(e.0);
     let theta = |i: usize| TAU * i as Real / n_theta as Real;
     // The pole, then rings toward the neck; the polar angle of ring `k` runs from the pole to
-    // the neck ring at each azimuth.
-    // The neck is on the far side from the pole, where the distance from the axis falls
-    // toward the `-y` pole and rises away from it.
+    // the neck ring at each azimuth. The neck is on the far side from the pole: the distance
+    // from the axis falls toward the `-y` pole there and rises away from the `+y` one.
     let (pole_phi, range) = if top {
         (0.0, (0.5 * PI, PI))
     } else {
@@ -122,20 +140,7 @@ fn ellipsoid_to_neck(
         push_tri(tris, v, [pole, idx(0, i), idx(0, i + 1)], &centre);
     }
     for k in 0..rows as u32 - 1 {
-        for i in 0..nt {
-            push_tri(
-                tris,
-                v,
-                [idx(k, i), idx(k + 1, i), idx(k + 1, i + 1)],
-                &centre,
-            );
-            push_tri(
-                tris,
-                v,
-                [idx(k, i), idx(k + 1, i + 1), idx(k, i + 1)],
-                &centre,
-            );
-        }
+        push_band(tris, v, idx(k, 0), idx(k + 1, 0), nt, |_| centre);
     }
     idx(rows as u32 - 1, 0)
 }
@@ -175,23 +180,10 @@ pub fn head_and_shoulders(resolution: usize) -> (Vec<Point>, Vec<[u32; 3]>) {
         }
     }
     starts.push(head_ring);
-    let at = |k: usize, i: u32| starts[k] + i % nt;
     for k in 0..rings - 1 {
-        for i in 0..nt {
-            let mid = Point::new(0.0, v[at(k, i) as usize].y, 0.0);
-            push_tri(
-                &mut tris,
-                &v,
-                [at(k, i), at(k + 1, i), at(k + 1, i + 1)],
-                &mid,
-            );
-            push_tri(
-                &mut tris,
-                &v,
-                [at(k, i), at(k + 1, i + 1), at(k, i + 1)],
-                &mid,
-            );
-        }
+        let (lower, upper) = (starts[k], starts[k + 1]);
+        // Wound away from the axis, at each triangle's height.
+        push_band(&mut tris, &v, lower, upper, nt, |y| Point::new(0.0, y, 0.0));
     }
     (v, tris)
 }
