@@ -84,6 +84,8 @@ struct PairChunk {
 struct CellCols {
     /// Bounding boxes: min x, y, z, max x, y, z.
     boxes: [Vec<f32>; 6],
+    /// Earlier-cell bit sets ([`earlier_cells`]), padded with zeros.
+    earlier: Vec<u64>,
     /// Skeleton and segment.
     ids: Vec<[u32; 2]>,
 }
@@ -93,6 +95,7 @@ struct CellCols {
 #[derive(Clone, Copy, Debug)]
 struct CellView<'a> {
     cols: [&'a [f32]; 6],
+    earlier: &'a [u64],
     len: usize,
 }
 
@@ -100,6 +103,7 @@ impl<'a> CellView<'a> {
     fn new(cols: &'a CellCols, len: usize) -> Self {
         Self {
             cols: [0, 1, 2, 3, 4, 5].map(|k| &cols.boxes[k][..len]),
+            earlier: &cols.earlier[..len],
             len,
         }
     }
@@ -113,6 +117,8 @@ const PAD: usize = 8;
 struct RowHead {
     lo: [f32; 3],
     hi: [f32; 3],
+    /// The section's earlier-cell bit set in this cell.
+    earlier: u64,
 }
 
 /// A reusable set of section pairs `[i, j]` with `i < j`, filled by [`Grid::candidate_pairs`] or
@@ -298,7 +304,7 @@ impl Grid {
         for c in cells {
             self.cell_pairs::<AVX>(c, chunk, exact);
         }
-        self.finish(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
+        self.finish::<AVX>(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
         chunk.n_cand = 0;
     }
 
@@ -326,7 +332,9 @@ impl Grid {
                 col.resize(m + PAD, f32::NAN);
             }
             cols.ids.resize(m + PAD, [0; 2]);
+            cols.earlier.resize(m + PAD, 0);
         }
+        cols.earlier[..m].copy_from_slice(earlier);
         for col in cols.boxes.iter_mut() {
             col[m..m + PAD].fill(f32::NAN);
         }
@@ -357,6 +365,7 @@ impl Grid {
             let head = RowHead {
                 lo: [bx[0][a], bx[1][a], bx[2][a]],
                 hi: [bx[3][a], bx[4][a], bx[5][a]],
+                earlier: earlier[a],
             };
             let [skel_a, seg_a] = ids[a];
             let (earlier_a, ent_a) = (earlier[a], ents[a]);
@@ -372,8 +381,8 @@ impl Grid {
                 let start = b0 + 64 * g;
                 let mut bits = row_hits::<AVX>(&view, &head, start, (n - 64 * g).min(64));
                 // The neighbour and owner tests hit by hit, branch-free but for the rare
-                // undecided owner. (Running them lane-wise on every group of eight with a box
-                // hit took more instructions than it saved.)
+                // undecided owner. (The AVX2 kernel has already dropped the hits that share an
+                // earlier cell; the whole test lane-wise took more instructions than it saved.)
                 while bits != 0 {
                     let b = start + bits.trailing_zeros() as usize;
                     bits &= bits - 1;
@@ -391,7 +400,7 @@ impl Grid {
             }
             nc += k;
             if nc >= BATCH {
-                self.finish(&cand[..nc], pairs, exact);
+                self.finish::<AVX>(&cand[..nc], pairs, exact);
                 nc = 0;
             }
         }
@@ -400,7 +409,7 @@ impl Grid {
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
     #[inline(always)]
-    fn finish(&self, cand: &[[u32; 2]], pairs: &mut Vec<[u32; 2]>, exact: bool) {
+    fn finish<const AVX: bool>(&self, cand: &[[u32; 2]], pairs: &mut Vec<[u32; 2]>, exact: bool) {
         let pk = &self.packed;
         let order = &pk.order;
         let orig = |[a, b]: [u32; 2]| {
@@ -414,7 +423,7 @@ impl Grid {
         let margin = self.config.margin;
         let mut blocks = cand.chunks_exact(LANES);
         for block in &mut blocks {
-            let mut keep = self.exact_lanes(block, margin);
+            let mut keep = self.exact_lanes::<AVX>(block, margin);
             while keep != 0 {
                 pairs.push(orig(block[keep.trailing_zeros() as usize]));
                 keep &= keep - 1;
@@ -437,62 +446,19 @@ impl Grid {
     /// band of the margin (and any pair that is not two LSS) is decided by [`Ssv::distance`]
     /// itself: the result is exactly `distance <= margin`.
     #[inline(always)]
-    fn exact_lanes(&self, block: &[[u32; 2]], margin: Real) -> u32 {
+    #[allow(unsafe_code)]
+    fn exact_lanes<const AVX: bool>(&self, block: &[[u32; 2]], margin: Real) -> u32 {
         let lines = &self.packed.lines;
-        let mut p = [[0.0f32; LANES]; 8];
-        let mut q = [[0.0f32; LANES]; 8];
-        for (l, &[a, b]) in block.iter().enumerate().take(LANES) {
-            let (la, lb) = (&lines[a as usize], &lines[b as usize]);
-            for k in 0..8 {
-                p[k][l] = la[k];
-                q[k][l] = lb[k];
-            }
-        }
-        let mut d = [0.0f32; LANES];
-        let mut band = [0.0f32; LANES];
-        for l in 0..LANES {
-            let (ux, uy, uz) = (p[3][l], p[4][l], p[5][l]);
-            let (vx, vy, vz) = (q[3][l], q[4][l], q[5][l]);
-            let (rx, ry, rz) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
-            let a = ux * ux + uy * uy + uz * uz;
-            let e = vx * vx + vy * vy + vz * vz;
-            let b = ux * vx + uy * vy + uz * vz;
-            let c = ux * rx + uy * ry + uz * rz;
-            let f = vx * rx + vy * ry + vz * rz;
-            let denom = a * e - b * b;
-            let classic = (b * f - c * e) / denom;
-            let (nx, ny, nz) = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx);
-            let (mx, my, mz) = (vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx);
-            let nn = nx * nx + ny * ny + nz * nz;
-            let crossed = (nx * mx + ny * my + nz * mz) / nn;
-            let s0 = if denom > 0.0625 * a * e {
-                classic
-            } else if nn > 0.0 {
-                crossed
-            } else {
-                0.0
-            };
-            let s0 = s0.clamp(0.0, 1.0);
-            let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
-            let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
-            let t = ((b * s0 + f) * inv_e).clamp(0.0, 1.0);
-            let s = ((b * t - c) * inv_a).clamp(0.0, 1.0);
-            let (wx, wy, wz) = (
-                rx + ux * s - vx * t,
-                ry + uy * s - vy * t,
-                rz + uz * s - vz * t,
-            );
-            d[l] = (wx * wx + wy * wy + wz * wz).sqrt() - (p[6][l] + q[6][l]);
-            band[l] = 1e-5 * p[7][l].max(q[7][l]);
-        }
-        // Bit masks: surely in, and undecided (within the band, or NaN: not two LSS).
-        let (mut sure, mut open) = (0u32, 0u32);
-        for l in 0..LANES {
-            let inside = d[l] < margin - band[l];
-            let outside = d[l] > margin + band[l];
-            sure |= u32::from(inside) << l;
-            open |= u32::from(!(inside | outside)) << l;
-        }
+        #[cfg(target_arch = "x86_64")]
+        let (mut sure, mut open) = if AVX {
+            // SAFETY: `AVX` is true only in code reached from `Grid::task_avx2`, which runs only
+            // when `has_avx2` found AVX2 on this processor.
+            unsafe { lanes_decide_avx2(lines, block, margin) }
+        } else {
+            lanes_decide(lines, block, margin)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (mut sure, mut open) = lanes_decide(lines, block, margin);
         while open != 0 {
             let l = open.trailing_zeros() as usize;
             open &= open - 1;
@@ -516,6 +482,182 @@ impl Grid {
         };
         !share_any(before(a), before(b))
     }
+}
+
+/// The exact test on eight candidates (`block`, internal indices) in plain Rust: hair-ssv's
+/// segment-segment kernel lane-wise on the packed lines, then `(sure, open)` lane masks: the
+/// distance is surely within `margin`, or within a rounding band of it (or NaN: not two LSS) so
+/// that the scalar test must decide.
+#[inline(always)]
+fn lanes_decide(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) {
+    let mut p = [[0.0f32; LANES]; 8];
+    let mut q = [[0.0f32; LANES]; 8];
+    for (l, &[a, b]) in block.iter().enumerate().take(LANES) {
+        let (la, lb) = (&lines[a as usize], &lines[b as usize]);
+        for k in 0..8 {
+            p[k][l] = la[k];
+            q[k][l] = lb[k];
+        }
+    }
+    let mut d = [0.0f32; LANES];
+    let mut band = [0.0f32; LANES];
+    for l in 0..LANES {
+        let (ux, uy, uz) = (p[3][l], p[4][l], p[5][l]);
+        let (vx, vy, vz) = (q[3][l], q[4][l], q[5][l]);
+        let (rx, ry, rz) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
+        let a = ux * ux + uy * uy + uz * uz;
+        let e = vx * vx + vy * vy + vz * vz;
+        let b = ux * vx + uy * vy + uz * vz;
+        let c = ux * rx + uy * ry + uz * rz;
+        let f = vx * rx + vy * ry + vz * rz;
+        let denom = a * e - b * b;
+        let classic = (b * f - c * e) / denom;
+        let (nx, ny, nz) = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx);
+        let (mx, my, mz) = (vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx);
+        let nn = nx * nx + ny * ny + nz * nz;
+        let crossed = (nx * mx + ny * my + nz * mz) / nn;
+        let s0 = if denom > 0.0625 * a * e {
+            classic
+        } else if nn > 0.0 {
+            crossed
+        } else {
+            0.0
+        };
+        let s0 = s0.clamp(0.0, 1.0);
+        let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
+        let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
+        let t = ((b * s0 + f) * inv_e).clamp(0.0, 1.0);
+        let s = ((b * t - c) * inv_a).clamp(0.0, 1.0);
+        let (wx, wy, wz) = (
+            rx + ux * s - vx * t,
+            ry + uy * s - vy * t,
+            rz + uz * s - vz * t,
+        );
+        d[l] = (wx * wx + wy * wy + wz * wz).sqrt() - (p[6][l] + q[6][l]);
+        band[l] = 1e-5 * p[7][l].max(q[7][l]);
+    }
+    let (mut sure, mut open) = (0u32, 0u32);
+    for l in 0..LANES {
+        let inside = d[l] < margin - band[l];
+        let outside = d[l] > margin + band[l];
+        sure |= u32::from(inside) << l;
+        open |= u32::from(!(inside | outside)) << l;
+    }
+    (sure, open)
+}
+
+/// [`lanes_decide`] with AVX2 intrinsics, the same operations in the same order (so the same
+/// values): a core is eight floats, one register, so the eight first cores are loaded whole and
+/// transposed in registers (the second ones the same way) instead of 128 single moves, and the
+/// lane masks come from compares and `movemask` instead of a loop over the lanes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(unsafe_code)]
+fn lanes_decide_avx2(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) {
+    use std::arch::x86_64::{
+        __m256, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_add_ps, _mm256_blendv_ps, _mm256_cmp_ps,
+        _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+        _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+    };
+    assert!(block.len() >= LANES);
+    let load = |i: u32| -> __m256 {
+        let line: &Line = &lines[i as usize];
+        // SAFETY: a `Line` is eight contiguous floats.
+        unsafe { _mm256_loadu_ps(line.as_ptr()) }
+    };
+    let p = transpose8(std::array::from_fn(|l| load(block[l][0])));
+    let q = transpose8(std::array::from_fn(|l| load(block[l][1])));
+    let (add, sub, mul, div) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
+    let zero = _mm256_setzero_ps();
+    let one = _mm256_set1_ps(1.0);
+    // `x.clamp(0.0, 1.0)` for any `x` but NaN's payload: `max(0, x)` keeps `x` when it is NaN
+    // or -0.0 (the second operand wins ties and NaN), as `clamp` does.
+    let clamp01 = |x: __m256| _mm256_min_ps(one, _mm256_max_ps(zero, x));
+    let gt = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_GT_OQ>(a, b);
+    let dot = |a: [__m256; 3], b: [__m256; 3]| {
+        add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+    };
+    let cross = |a: [__m256; 3], b: [__m256; 3]| {
+        [
+            sub(mul(a[1], b[2]), mul(a[2], b[1])),
+            sub(mul(a[2], b[0]), mul(a[0], b[2])),
+            sub(mul(a[0], b[1]), mul(a[1], b[0])),
+        ]
+    };
+    let u = [p[3], p[4], p[5]];
+    let v = [q[3], q[4], q[5]];
+    let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
+    let a = dot(u, u);
+    let e = dot(v, v);
+    let b = dot(u, v);
+    let c = dot(u, r);
+    let f = dot(v, r);
+    let denom = sub(mul(a, e), mul(b, b));
+    let classic = div(sub(mul(b, f), mul(c, e)), denom);
+    let n = cross(u, v);
+    let m = cross(v, r);
+    let nn = dot(n, n);
+    let crossed = div(dot(n, m), nn);
+    // blendv(x, y, mask) takes `y` where the mask is set.
+    let s0 = _mm256_blendv_ps(zero, crossed, gt(nn, zero));
+    let s0 = _mm256_blendv_ps(
+        s0,
+        classic,
+        gt(denom, mul(mul(_mm256_set1_ps(0.0625), a), e)),
+    );
+    let s0 = clamp01(s0);
+    let inv_e = _mm256_blendv_ps(zero, div(one, e), gt(e, zero));
+    let inv_a = _mm256_blendv_ps(zero, div(one, a), gt(a, zero));
+    let t = clamp01(mul(add(mul(b, s0), f), inv_e));
+    let s = clamp01(mul(sub(mul(b, t), c), inv_a));
+    let w = [0, 1, 2].map(|k| sub(add(r[k], mul(u[k], s)), mul(v[k], t)));
+    let d = sub(_mm256_sqrt_ps(dot(w, w)), add(p[6], q[6]));
+    // `p.max(q)` for the scales, which are never NaN (at least 1).
+    let band = mul(_mm256_set1_ps(1e-5), _mm256_max_ps(p[7], q[7]));
+    let margin = _mm256_set1_ps(margin);
+    let inside = _mm256_cmp_ps::<_CMP_LT_OQ>(d, sub(margin, band));
+    let outside = _mm256_cmp_ps::<_CMP_GT_OQ>(d, add(margin, band));
+    let sure = _mm256_movemask_ps(inside) as u32;
+    let decided = sure | _mm256_movemask_ps(outside) as u32;
+    (sure, !decided & 0xff)
+}
+
+/// The 8 x 8 transpose of eight registers: lane `l` of output `k` is lane `k` of input `l`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn transpose8(r: [std::arch::x86_64::__m256; 8]) -> [std::arch::x86_64::__m256; 8] {
+    use std::arch::x86_64::{
+        _mm256_permute2f128_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+    };
+    // Pairs of rows interleaved, then pairs of pairs, then the 128-bit halves exchanged.
+    let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+    let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+    let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+    let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+    let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    let s0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+    let s1 = _mm256_shuffle_ps::<0xee>(t0, t2);
+    let s2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+    let s3 = _mm256_shuffle_ps::<0xee>(t1, t3);
+    let s4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+    let s5 = _mm256_shuffle_ps::<0xee>(t4, t6);
+    let s6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+    let s7 = _mm256_shuffle_ps::<0xee>(t5, t7);
+    [
+        _mm256_permute2f128_ps::<0x20>(s0, s4),
+        _mm256_permute2f128_ps::<0x20>(s1, s5),
+        _mm256_permute2f128_ps::<0x20>(s2, s6),
+        _mm256_permute2f128_ps::<0x20>(s3, s7),
+        _mm256_permute2f128_ps::<0x31>(s0, s4),
+        _mm256_permute2f128_ps::<0x31>(s1, s5),
+        _mm256_permute2f128_ps::<0x31>(s2, s6),
+        _mm256_permute2f128_ps::<0x31>(s3, s7),
+    ]
 }
 
 /// Box tests of one row (`len <= 64` boxes from `start`): AVX2 inside [`Grid::task_avx2`], else
@@ -618,20 +760,26 @@ fn row_hits_portable(view: &CellView, head: &RowHead, start: usize, len: usize) 
     bits
 }
 
-/// Box tests of one row with AVX2, eight boxes per compare (see [`row_hits_base`]).
+/// Box tests of one row with AVX2, eight boxes per compare (see [`row_hits_base`]), less the
+/// boxes whose pair this cell surely does not report: the two sections share an earlier cell
+/// inside the window ([`owner`] would drop them). In crowded cells of long sections most box
+/// hits are such repeats, and eight are ruled out here for the cost of one in the hit loop.
+/// What is kept is a superset of the reported pairs: the hit loop still decides each one.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
 #[allow(unsafe_code)]
 fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
     use std::arch::x86_64::{
-        __m256, _CMP_LE_OQ, _mm256_and_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_movemask_ps,
-        _mm256_set1_ps,
+        __m256, __m256i, _CMP_LE_OQ, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_pd,
+        _mm256_cmp_ps, _mm256_cmpeq_epi64, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_movemask_pd,
+        _mm256_movemask_ps, _mm256_set1_epi64x, _mm256_set1_ps, _mm256_setzero_si256,
     };
     let octets = len.div_ceil(8);
-    // One check for all six columns, which are `view.len` long.
-    assert!(start + 8 * octets <= view.len);
+    // One check for all seven columns, which are `view.len` long.
+    assert!(start + 8 * octets <= view.len && view.earlier.len() == view.len);
     let [lx, ly, lz, hx, hy, hz] = view.cols.map(|c| c.as_ptr());
+    let earlier = view.earlier.as_ptr();
     let (lo, hi) = (head.lo, head.hi);
     let (lo_x, lo_y, lo_z) = (
         _mm256_set1_ps(lo[0]),
@@ -643,11 +791,30 @@ fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u
         _mm256_set1_ps(hi[1]),
         _mm256_set1_ps(hi[2]),
     );
+    // A lane may be reported here when the sets share no window bit, or when either cover is
+    // too long to be described (then the key lists decide).
+    let shared_window = _mm256_set1_epi64x((head.earlier & WINDOW) as i64);
+    let unknown = _mm256_set1_epi64x(UNKNOWN as i64);
+    let zero = _mm256_setzero_si256();
+    let keep_all: u32 = if head.earlier & UNKNOWN != 0 { 0xff } else { 0 };
     // Eight consecutive floats of a column, octet `q` of the row.
     let octet = |c: *const f32, q: usize| -> __m256 {
         // SAFETY: `q < octets`, so the eight floats end at most at `start + 8 * octets`, inside
         // the column (asserted above).
         unsafe { _mm256_loadu_ps(c.add(start + 8 * q)) }
+    };
+    // Four consecutive bit sets, half `h` of octet `q`.
+    let quad = |q: usize, h: usize| -> __m256i {
+        // SAFETY: as for `octet`: the four sets end at most at `start + 8 * octets`, inside the
+        // earlier-cell column, which is as long as the others (asserted above).
+        unsafe { _mm256_loadu_si256(earlier.add(start + 8 * q + 4 * h).cast()) }
+    };
+    let lanes = |m: __m256i| _mm256_movemask_pd(_mm256_castsi256_pd(m)) as u32;
+    let may_report = |q: usize, h: usize| -> u32 {
+        let b = quad(q, h);
+        let apart = lanes(_mm256_cmpeq_epi64(_mm256_and_si256(b, shared_window), zero));
+        let described = lanes(_mm256_cmpeq_epi64(_mm256_and_si256(b, unknown), zero));
+        apart | (!described & 0xf)
     };
     // Ordered comparisons: false for the NaN padding.
     let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
@@ -658,7 +825,8 @@ fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u
         let y = _mm256_and_ps(le(octet(ly, q), hi_y), le(lo_y, octet(hy, q)));
         let z = _mm256_and_ps(le(octet(lz, q), hi_z), le(lo_z, octet(hz, q)));
         let hit = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(x, y), z)) as u32;
-        bits = (bits << 8) | u64::from(hit);
+        let keep = may_report(q, 0) | may_report(q, 1) << 4 | keep_all;
+        bits = (bits << 8) | u64::from(hit & keep);
     }
     bits
 }
@@ -775,6 +943,7 @@ mod tests {
             for col in cols.boxes.iter_mut() {
                 col.resize(m + PAD, f32::NAN);
             }
+            cols.earlier.resize(m + PAD, 0);
             // Coordinates on a coarse lattice, so that boxes often touch exactly.
             for e in 0..m {
                 for k in 0..3 {
@@ -788,6 +957,7 @@ mod tests {
                 let head = RowHead {
                     lo: [0, 1, 2].map(|k| cols.boxes[k][a]),
                     hi: [3, 4, 5].map(|k| cols.boxes[k][a]),
+                    earlier: 0,
                 };
                 let n = m - a - 1;
                 for g in 0..n.div_ceil(64) {
@@ -813,6 +983,128 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_avx2_row_filter_keeps_every_pair_the_cell_may_report() {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx2() {
+            let mut z = 5u64;
+            // Bit sets of a few window cells, with and without cells outside the window, and
+            // covers too long to be described.
+            let set = |z: &mut u64| -> u64 {
+                match (lcg(z) * 8.0) as u32 {
+                    0 => 0,
+                    1 => u64::MAX,
+                    2 => OUTSIDE,
+                    3 => OUTSIDE | 1 << (lcg(z) * 62.0) as u32,
+                    _ => (0..3).fold(0, |b, _| b | 1 << ((lcg(z) * 8.0) as u32 * 7)),
+                }
+            };
+            for m in [2usize, 9, 64, 130] {
+                let mut cols = CellCols::default();
+                for col in cols.boxes.iter_mut() {
+                    col.resize(m + PAD, f32::NAN);
+                }
+                cols.earlier.resize(m + PAD, 0);
+                // Every box overlaps every other: the filter alone decides.
+                for e in 0..m {
+                    for k in 0..3 {
+                        cols.boxes[k][e] = 0.0;
+                        cols.boxes[k + 3][e] = 1.0;
+                    }
+                    cols.earlier[e] = set(&mut z);
+                }
+                let view = CellView::new(&cols, m + PAD);
+                for a in 0..m - 1 {
+                    let head = RowHead {
+                        lo: [0.0; 3],
+                        hi: [1.0; 3],
+                        earlier: cols.earlier[a],
+                    };
+                    let n = m - a - 1;
+                    for g in 0..n.div_ceil(64) {
+                        let (start, len) = (a + 1 + 64 * g, (n - 64 * g).min(64));
+                        #[allow(unsafe_code)]
+                        // SAFETY: AVX2 was found on this processor.
+                        let kept = unsafe { row_hits_avx2(&view, &head, start, len) };
+                        for k in 0..len {
+                            let (here, unsure) = owner(head.earlier, cols.earlier[start + k]);
+                            if here || unsure {
+                                assert_ne!(kept >> k & 1, 0, "a {a} b {}", start + k);
+                            }
+                        }
+                        // Nothing past the row (the padding's boxes are NaN).
+                        assert_eq!(kept.checked_shr(len as u32).unwrap_or(0), 0);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_lane_kernels_decide_as_the_scalar_distance() {
+        let mut z = 9u64;
+        // Segments on a coarse lattice (parallel, touching, crossing and zero-length ones come
+        // up often), some with a NaN radius (not an LSS: always undecided).
+        let line = |z: &mut u64| -> Line {
+            let at = |z: &mut u64| (lcg(z) * 8.0).floor() * 0.25;
+            let a = [at(z), at(z), at(z)];
+            let u = if lcg(z) < 0.1 {
+                [0.0; 3]
+            } else {
+                [at(z) - 1.0, at(z) - 1.0, at(z) - 1.0]
+            };
+            let radius = if lcg(z) < 0.05 {
+                f32::NAN
+            } else {
+                lcg(z) * 0.5
+            };
+            let scale = a
+                .iter()
+                .zip(&u)
+                .flat_map(|(a, u)| [a.abs(), (a + u).abs()])
+                .fold(1.0f32, f32::max);
+            [a[0], a[1], a[2], u[0], u[1], u[2], radius, scale]
+        };
+        let lines: Vec<Line> = (0..64).map(|_| line(&mut z)).collect();
+        let scalar = |l: &Line, m: &Line| {
+            let shape = |l: &Line| {
+                let a = Point::new(l[0], l[1], l[2]);
+                Ssv::Line(Lss::new(
+                    a,
+                    a + hair_ssv::Vector::new(l[3], l[4], l[5]),
+                    l[6],
+                ))
+            };
+            shape(l).distance(&shape(m))
+        };
+        let mut decided = 0;
+        for _ in 0..500 {
+            let block: Vec<[u32; 2]> = (0..LANES)
+                .map(|_| [(lcg(&mut z) * 64.0) as u32, (lcg(&mut z) * 64.0) as u32])
+                .collect();
+            let margin = if lcg(&mut z) < 0.5 { 0.0 } else { 0.1 };
+            let (sure, open) = lanes_decide(&lines, &block, margin);
+            for (l, &[a, b]) in block.iter().enumerate() {
+                let (la, lb) = (&lines[a as usize], &lines[b as usize]);
+                if open >> l & 1 == 0 {
+                    decided += 1;
+                    let within = scalar(la, lb) <= margin;
+                    assert_eq!(sure >> l & 1 != 0, within, "{la:?} {lb:?}");
+                } else {
+                    assert_eq!(sure >> l & 1, 0);
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            if has_avx2() {
+                #[allow(unsafe_code)]
+                // SAFETY: AVX2 was found on this processor.
+                let wide = unsafe { lanes_decide_avx2(&lines, &block, margin) };
+                assert_eq!(wide, (sure, open));
+            }
+        }
+        assert!(decided > 3000, "{decided}");
     }
 
     #[test]
