@@ -102,6 +102,8 @@ pub struct Simulation {
     node_push: Vec<Vector>,
     constraints: Vec<VelocityConstraint>,
     pair_list: Vec<[u32; 2]>,
+    /// The sections as the hair-hair response reads them, one cache line each.
+    contact_sections: Vec<ContactSection>,
     pair_responses: Vec<PairResponse>,
     body_nodes: Vec<BodyNode>,
     /// Per skeleton, the first node the hard constraint moved in this pass (`u32::MAX`: none).
@@ -272,6 +274,7 @@ impl Simulation {
             node_push: Vec::new(),
             constraints: Vec::new(),
             pair_list: Vec::new(),
+            contact_sections: Vec::new(),
             pair_responses: Vec::new(),
             body_nodes: Vec::new(),
             first_moved: Vec::new(),
@@ -732,40 +735,55 @@ impl Simulation {
         // 4. Hair-hair (soft): push overlapping sections apart by half the overlap each; let
         // near-parallel ones share their velocity instead.
         if self.scene.collision.hair_hair {
-            self.grid.overlapping_pairs(&mut self.pairs);
+            self.grid.overlapping_pairs_by_rank(&mut self.pairs);
             stats.pairs_tested = self.pairs.len();
             self.pair_list.clear();
             self.pair_list.extend(self.pairs.iter());
             let cos_parallel = self.scene.collision.parallel_angle.cos();
-            let (sections, section_node, tangent, state) = (
+            // In the pair search's order, so that the pairs, which come cell by cell, read
+            // nearby records.
+            self.contact_sections.clear();
+            let (state, sections, nodes, tangents) = (
+                &self.state,
                 &self.sections,
                 &self.section_node,
                 &self.section_tangent,
-                &self.state,
             );
+            self.contact_sections
+                .extend(self.grid.search_order().iter().map(|&i| {
+                    let (s, i) = (&sections[i as usize], i as usize);
+                    // Every section built above is a segment; any other shape gets no response.
+                    let (line, segment) = match s.shape {
+                        Ssv::Line(l) => (l, true),
+                        _ => (Lss::new(Point::origin(), Point::origin(), 0.0), false),
+                    };
+                    ContactSection {
+                        a: line.a,
+                        b: line.b,
+                        radius: line.radius,
+                        tangent: tangents[i],
+                        node: nodes[i],
+                        active: state.is_active(SkeletonId(s.skeleton)),
+                        segment,
+                    }
+                }));
+            let sections = &self.contact_sections;
             self.pair_list
                 .par_iter()
                 .map(|&[a, b]| {
                     let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
-                    let (Ssv::Line(la), Ssv::Line(lb)) = (&sa.shape, &sb.shape) else {
-                        return PairResponse::None;
-                    };
-                    if !(state.is_active(SkeletonId(sa.skeleton))
-                        || state.is_active(SkeletonId(sb.skeleton)))
-                    {
+                    if !(sa.segment && sb.segment && (sa.active || sb.active)) {
                         return PairResponse::None;
                     }
-                    let (na, nb) = (section_node[a as usize], section_node[b as usize]);
-                    let (ta, tb) = (tangent[a as usize], tangent[b as usize]);
-                    if ta.dot(&tb).abs() >= cos_parallel {
-                        return PairResponse::Share(na, nb);
+                    if sa.tangent.dot(&sb.tangent).abs() >= cos_parallel {
+                        return PairResponse::Share(sa.node, sb.node);
                     }
-                    let c = sa.shape.closest_points(&sb.shape);
+                    let c = hair_ssv::query::segment_segment(&sa.a, &sa.b, &sb.a, &sb.b);
                     let d = c.on_b - c.on_a;
                     let dist = d.norm();
-                    let overlap = la.radius + lb.radius - dist;
+                    let overlap = sa.radius + sb.radius - dist;
                     if overlap > 0.0 && dist > 1e-9 {
-                        PairResponse::Push(na, nb, d * (0.5 * overlap / dist))
+                        PairResponse::Push(sa.node, sb.node, d * (0.5 * overlap / dist))
                     } else {
                         PairResponse::None
                     }
@@ -1183,6 +1201,24 @@ struct BodyNode {
     prev: u32,
     skeleton: u32,
     radius: Real,
+}
+
+/// One section as the hair-hair response reads it: one cache line, instead of the section, its
+/// node, its direction and its skeleton's activity from four arrays.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct ContactSection {
+    a: Point,
+    b: Point,
+    radius: Real,
+    /// Unit direction (zero for a degenerate section).
+    tangent: Vector,
+    /// The section's end node (the one a push moves).
+    node: u32,
+    /// Whether its skeleton is integrated this step.
+    active: bool,
+    /// Whether it is a segment (the only shape the response handles).
+    segment: bool,
 }
 
 /// What the narrow phase decides for one hair-hair pair.

@@ -76,6 +76,9 @@ struct PairChunk {
     /// unpredictably).
     cand: Vec<[u32; 2]>,
     n_cand: usize,
+    /// Report pairs by position in the pair search's order ([`Grid::search_order`]) instead of
+    /// by section index.
+    ranked: bool,
 }
 
 /// The sections of one cell by column, padded past the cell's `m` entries with [`PAD`] NaN boxes
@@ -219,22 +222,36 @@ impl Grid {
     /// margin) overlap, skipping same-skeleton neighbours as configured. Contains every pair whose
     /// SSV distance is at most the margin. Each pair appears once, as `[i, j]` with `i < j`.
     pub fn candidate_pairs(&self, out: &mut PairSet) {
-        self.enumerate_pairs(out, false);
+        self.enumerate_pairs(out, false, false);
     }
 
     /// The pairs whose SSV distance (hair-ssv's exact distance, signed) is at most the margin:
     /// [`Grid::candidate_pairs`] followed by the exact test, in one pass.
     pub fn overlapping_pairs(&self, out: &mut PairSet) {
-        self.enumerate_pairs(out, true);
+        self.enumerate_pairs(out, true, false);
     }
 
-    fn enumerate_pairs(&self, out: &mut PairSet, exact: bool) {
-        self.enumerate_pairs_with(out, exact, has_avx2());
+    /// [`Grid::overlapping_pairs`], the same pairs in the same order, each given by the
+    /// positions of its sections in [`Grid::search_order`] (the section with the lower index
+    /// first). Data laid out in that order is read nearly in sequence while the pairs are
+    /// processed: sections that share cells sit close together in it.
+    pub fn overlapping_pairs_by_rank(&self, out: &mut PairSet) {
+        self.enumerate_pairs(out, true, true);
+    }
+
+    /// The sections (indices into the slice given to [`Grid::rebuild`]) in the order the pair
+    /// search visits them: by the first cell each covers, then by index.
+    pub fn search_order(&self) -> &[u32] {
+        &self.packed.order[..self.len()]
+    }
+
+    fn enumerate_pairs(&self, out: &mut PairSet, exact: bool, ranked: bool) {
+        self.enumerate_pairs_with(out, exact, ranked, has_avx2());
     }
 
     /// The pair search, with the AVX2 kernels or the baseline ones (`avx2` must be true only
     /// when [`has_avx2`]).
-    fn enumerate_pairs_with(&self, out: &mut PairSet, exact: bool, avx2: bool) {
+    fn enumerate_pairs_with(&self, out: &mut PairSet, exact: bool, ranked: bool, avx2: bool) {
         out.clear();
         let n_cells = self.cell_keys.len();
         let bounds = &mut out.bounds;
@@ -257,6 +274,9 @@ impl Grid {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
+        for chunk in &mut out.chunks[..tasks] {
+            chunk.ranked = ranked;
+        }
         let avx2 = avx2 && has_avx2();
         let bounds = &out.bounds;
         out.chunks[..tasks]
@@ -304,7 +324,12 @@ impl Grid {
         for c in cells {
             self.cell_pairs::<AVX>(c, chunk, exact);
         }
-        self.finish::<AVX>(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, exact);
+        self.finish::<AVX>(
+            &chunk.cand[..chunk.n_cand],
+            &mut chunk.pairs,
+            exact,
+            chunk.ranked,
+        );
         chunk.n_cand = 0;
     }
 
@@ -325,7 +350,9 @@ impl Grid {
             cols,
             cand,
             n_cand,
+            ranked,
         } = chunk;
+        let ranked = *ranked;
         // Gather the cell's sections into columns.
         if cols.ids.len() < m + PAD {
             for col in cols.boxes.iter_mut() {
@@ -400,7 +427,7 @@ impl Grid {
             }
             nc += k;
             if nc >= BATCH {
-                self.finish::<AVX>(&cand[..nc], pairs, exact);
+                self.finish::<AVX>(&cand[..nc], pairs, exact, ranked);
                 nc = 0;
             }
         }
@@ -409,12 +436,24 @@ impl Grid {
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
     #[inline(always)]
-    fn finish<const AVX: bool>(&self, cand: &[[u32; 2]], pairs: &mut Vec<[u32; 2]>, exact: bool) {
+    fn finish<const AVX: bool>(
+        &self,
+        cand: &[[u32; 2]],
+        pairs: &mut Vec<[u32; 2]>,
+        exact: bool,
+        ranked: bool,
+    ) {
         let pk = &self.packed;
         let order = &pk.order;
+        // The pair as reported: by section index, or by rank with the lower index first (the
+        // same orientation).
         let orig = |[a, b]: [u32; 2]| {
             let (i, j) = (order[a as usize], order[b as usize]);
-            [i.min(j), i.max(j)]
+            match (ranked, i < j) {
+                (false, _) => [i.min(j), i.max(j)],
+                (true, true) => [a, b],
+                (true, false) => [b, a],
+            }
         };
         if !exact {
             pairs.extend(cand.iter().map(|&p| orig(p)));
@@ -439,13 +478,10 @@ impl Grid {
                 }
             }
             for &p in blocks.remainder() {
-                let [i, j] = orig(p);
-                if self
-                    .shape_at(i as usize)
-                    .distance(self.shape_at(j as usize))
-                    <= margin
-                {
-                    pairs.push([i, j]);
+                let (i, j) = (order[p[0] as usize], order[p[1] as usize]);
+                let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+                if self.shape_at(i).distance(self.shape_at(j)) <= margin {
+                    pairs.push(orig(p));
                 }
             }
         }
@@ -1141,10 +1177,26 @@ mod tests {
         grid.rebuild(&sections).unwrap();
         for exact in [false, true] {
             let (mut base, mut wide) = (PairSet::new(), PairSet::new());
-            grid.enumerate_pairs_with(&mut base, exact, false);
-            grid.enumerate_pairs_with(&mut wide, exact, true);
+            grid.enumerate_pairs_with(&mut base, exact, false, false);
+            grid.enumerate_pairs_with(&mut wide, exact, false, true);
             assert!(base.len() > 1000, "{}", base.len());
             assert_eq!(base.to_vec(), wide.to_vec());
+        }
+        // By rank: the same pairs in the same order, with either kernel.
+        let order = grid.search_order();
+        let mut sorted = order.to_vec();
+        sorted.sort_unstable();
+        assert!(sorted.iter().enumerate().all(|(k, &i)| k == i as usize));
+        let mut plain = PairSet::new();
+        grid.overlapping_pairs(&mut plain);
+        for avx2 in [false, true] {
+            let mut ranked = PairSet::new();
+            grid.enumerate_pairs_with(&mut ranked, true, true, avx2);
+            let back: Vec<[u32; 2]> = ranked
+                .iter()
+                .map(|[a, b]| [order[a as usize], order[b as usize]])
+                .collect();
+            assert_eq!(back, plain.to_vec());
         }
     }
 
