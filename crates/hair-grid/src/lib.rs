@@ -9,6 +9,7 @@
 //! |---|---|
 //! | [`Grid`], [`GridConfig`], [`Section`] | insert hair sections (LSS / RSS / PSS from `hair-ssv`); cell size = mean segment length by default; each section covers exactly the cells its core reaches, grown by its radius |
 //! | [`Grid::candidate_pairs`], [`Grid::overlapping_pairs`], [`PairSet`] | unique hair-hair candidate pairs (each reported once, optionally skipping same-skeleton neighbours), and the exact-overlap pairs by `hair-ssv` distance |
+//! | [`Grid::overlapping_pairs_by_rank`], [`Grid::search_order`] | the same pairs by position in the search's order, for callers that lay their per-section data out in it |
 //! | [`BodyGrid`], [`Grid::body_cells`], [`BodyCells`] | body triangles inserted once; cells holding both hair and body, with their triangles |
 //! | [`InfluenceVolume`], [`Cone`], [`Grid::sections_in`], [`Grid::cells_touched_by`] | tool volumes (cone for water, spray, mousse, dryer, grab; triangle for scissors): cells first, then the exact test |
 //! | [`Activity`], [`ActivityConfig`], [`ActivityInput`], [`CellState`] | active and dormant cells; frozen sections; the skeletons to integrate this step |
@@ -132,6 +133,25 @@
 //! `build_ms` 27-31, `pairs_ms` 26-32, `total_ms` 53-64 and `ratio` 5.2-6.4 against the parry3d
 //! BVH (314-340 ms), where the same run before these changes gave 31 + 39 = 70 ms and 4.2-4.6.
 //! The goal of issue 4, under 30 ms for both on 2 cores, is not met.
+//!
+//! Then, for crowded cells of long sections (a simulation's: `wardlin` at its finest level has
+//! 18,220 sections of 5 cm in 248 cells of about 215), three changes with the same pairs in the
+//! same order (the three `grid_profile` hashes, on the bench scene and on a dump of `wardlin`'s
+//! sections). First, the AVX2 row kernel also drops the box hits whose two sections share an
+//! earlier cell inside the window (one AND and compare of the bit sets per four lanes; a hit it
+//! keeps still goes through the full owner test): there, most box hits are the same pair met
+//! again in its second or third shared cell, and 39% of the hits (3.4 M to 2.05 M per search,
+//! 2.04 M of them candidates) no longer reach the scalar loop; on the bench scene too (2.4 M to
+//! 1.5 M). (The whole owner and neighbour test lane-wise, measured before, cost more than it
+//! saved; this cut-down one does not.) Second, the exact test reads each candidate's core as one
+//! register (a core is eight floats), transposes eight of them in registers, and takes its lane
+//! masks by compare and `movemask` (it was 128 single moves and a loop over the lanes). Third, the lane tests of a batch of candidates run before any of its pairs are
+//! pushed, so that the blocks' chains of divisions and square roots overlap instead of waiting
+//! behind the push loop's mispredicted branches. Callgrind, one thread, `grid_profile pairs 3`:
+//! 1.87 G to 1.47 G instructions on `wardlin`'s sections, 2.61 G to 2.42 G on the bench scene.
+//! In time, on a shared machine that ran 2 to 2.5 times slower than on the days above (old and
+//! new measured alternately): `wardlin`'s sections, one thread, fastest of 15, 66-76 ms before and
+//! 56-66 ms after; `bench grid` `pairs_ms` 57-65 ms before and 56-59 ms after.
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
