@@ -531,7 +531,7 @@ impl Grid {
 }
 
 /// The exact test on eight candidates (`block`, internal indices) in plain Rust: hair-ssv's
-/// segment-segment kernel lane-wise on the packed lines, then `(sure, open)` lane masks: the
+/// segment-segment kernel lane-wise on the packed lines ([`hair_ssv::lss_lss_lanes`]), then `(sure, open)` lane masks: the
 /// distance is surely within `margin`, or within a rounding band of it (or NaN: not two LSS) so
 /// that the scalar test must decide.
 #[inline(always)]
@@ -545,43 +545,11 @@ fn lanes_decide(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) 
             q[k][l] = lb[k];
         }
     }
-    let mut d = [0.0f32; LANES];
-    let mut band = [0.0f32; LANES];
-    for l in 0..LANES {
-        let (ux, uy, uz) = (p[3][l], p[4][l], p[5][l]);
-        let (vx, vy, vz) = (q[3][l], q[4][l], q[5][l]);
-        let (rx, ry, rz) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
-        let a = ux * ux + uy * uy + uz * uz;
-        let e = vx * vx + vy * vy + vz * vz;
-        let b = ux * vx + uy * vy + uz * vz;
-        let c = ux * rx + uy * ry + uz * rz;
-        let f = vx * rx + vy * ry + vz * rz;
-        let denom = a * e - b * b;
-        let classic = (b * f - c * e) / denom;
-        let (nx, ny, nz) = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx);
-        let (mx, my, mz) = (vy * rz - vz * ry, vz * rx - vx * rz, vx * ry - vy * rx);
-        let nn = nx * nx + ny * ny + nz * nz;
-        let crossed = (nx * mx + ny * my + nz * mz) / nn;
-        let s0 = if denom > 0.0625 * a * e {
-            classic
-        } else if nn > 0.0 {
-            crossed
-        } else {
-            0.0
-        };
-        let s0 = s0.clamp(0.0, 1.0);
-        let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
-        let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
-        let t = ((b * s0 + f) * inv_e).clamp(0.0, 1.0);
-        let s = ((b * t - c) * inv_a).clamp(0.0, 1.0);
-        let (wx, wy, wz) = (
-            rx + ux * s - vx * t,
-            ry + uy * s - vy * t,
-            rz + uz * s - vz * t,
-        );
-        d[l] = (wx * wx + wy * wy + wz * wz).sqrt() - (p[6][l] + q[6][l]);
-        band[l] = 1e-5 * p[7][l].max(q[7][l]);
-    }
+    let (u, v) = ([p[3], p[4], p[5]], [q[3], q[4], q[5]]);
+    let r: [[f32; LANES]; 3] = std::array::from_fn(|k| std::array::from_fn(|l| p[k][l] - q[k][l]));
+    let radii: [f32; LANES] = std::array::from_fn(|l| p[6][l] + q[6][l]);
+    let d = hair_ssv::lss_lss_lanes(&u, &v, &r, &radii);
+    let band: [f32; LANES] = std::array::from_fn(|l| 1e-5 * p[7][l].max(q[7][l]));
     let (mut sure, mut open) = (0u32, 0u32);
     for l in 0..LANES {
         let inside = d[l] < margin - band[l];
@@ -981,15 +949,21 @@ mod tests {
         (*z >> 40) as f32 / (1u64 << 24) as f32
     }
 
+    /// Empty columns for a cell of `m` sections (NaN boxes, no earlier cells).
+    fn cell_cols(m: usize) -> CellCols {
+        let mut cols = CellCols::default();
+        for col in cols.boxes.iter_mut() {
+            col.resize(m + PAD, f32::NAN);
+        }
+        cols.earlier.resize(m + PAD, 0);
+        cols
+    }
+
     #[test]
     fn row_kernels_agree_with_the_plain_box_test() {
         let mut z = 3u64;
         for m in [2usize, 5, 8, 9, 31, 64, 65, 130] {
-            let mut cols = CellCols::default();
-            for col in cols.boxes.iter_mut() {
-                col.resize(m + PAD, f32::NAN);
-            }
-            cols.earlier.resize(m + PAD, 0);
+            let mut cols = cell_cols(m);
             // Coordinates on a coarse lattice, so that boxes often touch exactly.
             for e in 0..m {
                 for k in 0..3 {
@@ -1048,11 +1022,7 @@ mod tests {
                 }
             };
             for m in [2usize, 9, 64, 130] {
-                let mut cols = CellCols::default();
-                for col in cols.boxes.iter_mut() {
-                    col.resize(m + PAD, f32::NAN);
-                }
-                cols.earlier.resize(m + PAD, 0);
+                let mut cols = cell_cols(m);
                 // Every box overlaps every other: the filter alone decides.
                 for e in 0..m {
                     for k in 0..3 {

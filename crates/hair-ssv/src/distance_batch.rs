@@ -50,10 +50,29 @@ fn lanes(pairs: &[(Lss, Lss)], out: &mut [Real]) {
         }
         rad[i] = p.radius + q.radius;
     }
+    let res = lss_lss_lanes(&d1, &d2, &r, &rad);
+    out.copy_from_slice(&res[..out.len()]);
+}
+
+/// The segment-segment kernel of [`query::segment_segment`] on eight pairs of LSS in
+/// structure-of-arrays lanes, branch-free: for lane `i`, the first core is `a + s u` and the
+/// second `a' + t v` (`s`, `t` in `[0, 1]`), with `u[k][i]`, `v[k][i]` and `r[k][i] = a - a'`
+/// along axis `k`, and `radii[i]` the sum of the two radii. Returns the signed distances, equal
+/// to [`crate::Ssv::distance`]'s up to rounding. For callers that hold their segments in lanes
+/// already (a pair search testing eight candidates at once).
+///
+/// [`query::segment_segment`]: crate::query::segment_segment
+#[inline(always)]
+pub fn lss_lss_lanes(
+    u: &[[Real; LANES]; 3],
+    v: &[[Real; LANES]; 3],
+    r: &[[Real; LANES]; 3],
+    radii: &[Real; LANES],
+) -> [Real; LANES] {
     let mut res = [0.0; LANES];
     for i in 0..LANES {
-        let (ux, uy, uz) = (d1[0][i], d1[1][i], d1[2][i]);
-        let (vx, vy, vz) = (d2[0][i], d2[1][i], d2[2][i]);
+        let (ux, uy, uz) = (u[0][i], u[1][i], u[2][i]);
+        let (vx, vy, vz) = (v[0][i], v[1][i], v[2][i]);
         let (rx, ry, rz) = (r[0][i], r[1][i], r[2][i]);
         let a = ux * ux + uy * uy + uz * uz;
         let e = vx * vx + vy * vy + vz * vz;
@@ -84,7 +103,7 @@ fn lanes(pairs: &[(Lss, Lss)], out: &mut [Real]) {
             ry + uy * s - vy * t,
             rz + uz * s - vz * t,
         );
-        res[i] = (wx * wx + wy * wy + wz * wz).sqrt() - rad[i];
+        res[i] = (wx * wx + wy * wy + wz * wz).sqrt() - radii[i];
     }
-    out.copy_from_slice(&res[..out.len()]);
+    res
 }
