@@ -89,8 +89,6 @@ pub struct Simulation {
     grid: Grid,
     sections: Vec<Section>,
     section_node: Vec<u32>,
-    /// Unit direction of each section (zero for a degenerate one).
-    section_tangent: Vec<Vector>,
     pairs: PairSet,
     activity: Activity,
     speeds: Vec<Real>,
@@ -264,7 +262,6 @@ impl Simulation {
             grid: Grid::new(GridConfig::default()),
             sections: Vec::new(),
             section_node: Vec::new(),
-            section_tangent: Vec::new(),
             pairs: PairSet::new(),
             activity: Activity::new(ActivityConfig::default()),
             speeds: Vec::new(),
@@ -652,7 +649,6 @@ impl Simulation {
         // 3. Grid over the front's segments (head frame, where the body is static).
         self.sections.clear();
         self.section_node.clear();
-        self.section_tangent.clear();
         for &node in &self.front_nodes {
             let r = self.state.nodes(SkeletonId(node));
             let p = self.state.positions();
@@ -665,11 +661,6 @@ impl Simulation {
                     shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
                 });
                 self.section_node.push(i as u32);
-                self.section_tangent.push(
-                    (p[i] - p[i - 1])
-                        .try_normalize(0.0)
-                        .unwrap_or_else(Vector::zeros),
-                );
             }
         }
         self.grid.rebuild(&self.sections)?;
@@ -743,12 +734,7 @@ impl Simulation {
             // In the pair search's order, so that the pairs, which come cell by cell, read
             // nearby records.
             self.contact_sections.clear();
-            let (state, sections, nodes, tangents) = (
-                &self.state,
-                &self.sections,
-                &self.section_node,
-                &self.section_tangent,
-            );
+            let (state, sections, nodes) = (&self.state, &self.sections, &self.section_node);
             self.contact_sections
                 .extend(self.grid.search_order().iter().map(|&i| {
                     let (s, i) = (&sections[i as usize], i as usize);
@@ -761,7 +747,9 @@ impl Simulation {
                         a: line.a,
                         b: line.b,
                         radius: line.radius,
-                        tangent: tangents[i],
+                        tangent: (line.b - line.a)
+                            .try_normalize(0.0)
+                            .unwrap_or_else(Vector::zeros),
                         node: nodes[i],
                         active: state.is_active(SkeletonId(s.skeleton)),
                         segment,

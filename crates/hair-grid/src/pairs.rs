@@ -76,8 +76,15 @@ struct PairChunk {
     /// unpredictably).
     cand: Vec<[u32; 2]>,
     n_cand: usize,
-    /// Report pairs by position in the pair search's order ([`Grid::search_order`]) instead of
-    /// by section index.
+}
+
+/// What a pair search reports.
+#[derive(Clone, Copy, Debug)]
+struct Report {
+    /// Only the pairs within the margin (else every candidate).
+    exact: bool,
+    /// Pairs by position in the pair search's order ([`Grid::search_order`]) instead of by
+    /// section index.
     ranked: bool,
 }
 
@@ -246,12 +253,12 @@ impl Grid {
     }
 
     fn enumerate_pairs(&self, out: &mut PairSet, exact: bool, ranked: bool) {
-        self.enumerate_pairs_with(out, exact, ranked, has_avx2());
+        self.enumerate_pairs_with(out, Report { exact, ranked }, has_avx2());
     }
 
     /// The pair search, with the AVX2 kernels or the baseline ones (`avx2` must be true only
     /// when [`has_avx2`]).
-    fn enumerate_pairs_with(&self, out: &mut PairSet, exact: bool, ranked: bool, avx2: bool) {
+    fn enumerate_pairs_with(&self, out: &mut PairSet, report: Report, avx2: bool) {
         out.clear();
         let n_cells = self.cell_keys.len();
         let bounds = &mut out.bounds;
@@ -274,9 +281,6 @@ impl Grid {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
-        for chunk in &mut out.chunks[..tasks] {
-            chunk.ranked = ranked;
-        }
         let avx2 = avx2 && has_avx2();
         let bounds = &out.bounds;
         out.chunks[..tasks]
@@ -285,9 +289,9 @@ impl Grid {
             .for_each(|(t, chunk)| {
                 let cells = bounds[t]..bounds[t + 1];
                 if avx2 {
-                    self.task_avx2(cells, chunk, exact);
+                    self.task_avx2(cells, chunk, report);
                 } else {
-                    self.task::<false>(cells, chunk, exact);
+                    self.task::<false>(cells, chunk, report);
                 }
             });
     }
@@ -297,18 +301,18 @@ impl Grid {
     /// never fuses or reorders floating-point operations, whatever the instruction set.)
     #[cfg(target_arch = "x86_64")]
     #[allow(unsafe_code)]
-    fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, exact: bool) {
+    fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
         #[target_feature(enable = "avx2")]
-        fn run(grid: &Grid, cells: std::ops::Range<usize>, chunk: &mut PairChunk, exact: bool) {
-            grid.task::<true>(cells, chunk, exact);
+        fn run(grid: &Grid, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
+            grid.task::<true>(cells, chunk, report);
         }
         // SAFETY: called only when `has_avx2` found AVX2 on this processor.
-        unsafe { run(self, cells, chunk, exact) }
+        unsafe { run(self, cells, chunk, report) }
     }
 
     #[cfg(not(target_arch = "x86_64"))]
-    fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, exact: bool) {
-        self.task::<false>(cells, chunk, exact);
+    fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
+        self.task::<false>(cells, chunk, report);
     }
 
     /// The pairs first reported by the cells of one task, into `chunk.pairs`.
@@ -317,25 +321,20 @@ impl Grid {
         &self,
         cells: std::ops::Range<usize>,
         chunk: &mut PairChunk,
-        exact: bool,
+        report: Report,
     ) {
         chunk.pairs.clear();
         chunk.n_cand = 0;
         for c in cells {
-            self.cell_pairs::<AVX>(c, chunk, exact);
+            self.cell_pairs::<AVX>(c, chunk, report);
         }
-        self.finish::<AVX>(
-            &chunk.cand[..chunk.n_cand],
-            &mut chunk.pairs,
-            exact,
-            chunk.ranked,
-        );
+        self.finish::<AVX>(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, report);
         chunk.n_cand = 0;
     }
 
     /// The candidates first reported by cell `c`, into `chunk.cand` (flushed as it fills).
     #[inline(always)]
-    fn cell_pairs<const AVX: bool>(&self, c: usize, chunk: &mut PairChunk, exact: bool) {
+    fn cell_pairs<const AVX: bool>(&self, c: usize, chunk: &mut PairChunk, report: Report) {
         let pk = &self.packed;
         let range = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
         let ents = &pk.items[range.clone()];
@@ -350,9 +349,7 @@ impl Grid {
             cols,
             cand,
             n_cand,
-            ranked,
         } = chunk;
-        let ranked = *ranked;
         // Gather the cell's sections into columns.
         if cols.ids.len() < m + PAD {
             for col in cols.boxes.iter_mut() {
@@ -427,7 +424,7 @@ impl Grid {
             }
             nc += k;
             if nc >= BATCH {
-                self.finish::<AVX>(&cand[..nc], pairs, exact, ranked);
+                self.finish::<AVX>(&cand[..nc], pairs, report);
                 nc = 0;
             }
         }
@@ -440,22 +437,20 @@ impl Grid {
         &self,
         cand: &[[u32; 2]],
         pairs: &mut Vec<[u32; 2]>,
-        exact: bool,
-        ranked: bool,
+        report: Report,
     ) {
-        let pk = &self.packed;
-        let order = &pk.order;
+        let order = &self.packed.order;
         // The pair as reported: by section index, or by rank with the lower index first (the
         // same orientation).
         let orig = |[a, b]: [u32; 2]| {
             let (i, j) = (order[a as usize], order[b as usize]);
-            match (ranked, i < j) {
+            match (report.ranked, i < j) {
                 (false, _) => [i.min(j), i.max(j)],
                 (true, true) => [a, b],
                 (true, false) => [b, a],
             }
         };
-        if !exact {
+        if !report.exact {
             pairs.extend(cand.iter().map(|&p| orig(p)));
             return;
         }
@@ -478,17 +473,15 @@ impl Grid {
                 }
             }
             for &p in blocks.remainder() {
-                let (i, j) = (order[p[0] as usize], order[p[1] as usize]);
-                let (i, j) = (i.min(j) as usize, i.max(j) as usize);
-                if self.shape_at(i).distance(self.shape_at(j)) <= margin {
+                if self.within_margin(p, margin) {
                     pairs.push(orig(p));
                 }
             }
         }
     }
 
-    /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's segment-segment kernel run lane-wise on the
-    /// packed lines. It agrees with the scalar kernel up to rounding, so a pair within a rounding
+    /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's
+    /// segment-segment kernel run lane-wise on the packed lines. It agrees with the scalar kernel up to rounding, so a pair within a rounding
     /// band of the margin (and any pair that is not two LSS) is decided by [`Ssv::distance`]
     /// itself: the result is exactly `distance <= margin`.
     #[inline(always)]
@@ -508,14 +501,19 @@ impl Grid {
         while open != 0 {
             let l = open.trailing_zeros() as usize;
             open &= open - 1;
-            let [a, b] = block[l];
-            let (i, j) = (self.packed.order[a as usize], self.packed.order[b as usize]);
-            let (i, j) = (i.min(j) as usize, i.max(j) as usize);
-            if self.shape_at(i).distance(self.shape_at(j)) <= margin {
+            if self.within_margin(block[l], margin) {
                 sure |= 1 << l;
             }
         }
         sure
+    }
+
+    /// Whether the sections of the candidate `[a, b]` (internal indices) are within the margin
+    /// by hair-ssv's exact distance, taken from the lower section index to the higher.
+    fn within_margin(&self, [a, b]: [u32; 2], margin: Real) -> bool {
+        let (i, j) = (self.packed.order[a as usize], self.packed.order[b as usize]);
+        let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+        self.shape_at(i).distance(self.shape_at(j)) <= margin
     }
 
     /// Whether the cell `key`, covered by the sections of internal indices `a` and `b`, is the
@@ -531,9 +529,9 @@ impl Grid {
 }
 
 /// The exact test on eight candidates (`block`, internal indices) in plain Rust: hair-ssv's
-/// segment-segment kernel lane-wise on the packed lines ([`hair_ssv::lss_lss_lanes`]), then `(sure, open)` lane masks: the
-/// distance is surely within `margin`, or within a rounding band of it (or NaN: not two LSS) so
-/// that the scalar test must decide.
+/// segment-segment kernel lane-wise on the packed lines ([`hair_ssv::lss_lss_lanes`]), then
+/// `(sure, open)` lane masks: the distance is surely within `margin`, or within a rounding band
+/// of it (or NaN: not two LSS) so that the scalar test must decide.
 #[inline(always)]
 fn lanes_decide(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) {
     let mut p = [[0.0f32; LANES]; 8];
@@ -1147,8 +1145,22 @@ mod tests {
         grid.rebuild(&sections).unwrap();
         for exact in [false, true] {
             let (mut base, mut wide) = (PairSet::new(), PairSet::new());
-            grid.enumerate_pairs_with(&mut base, exact, false, false);
-            grid.enumerate_pairs_with(&mut wide, exact, false, true);
+            grid.enumerate_pairs_with(
+                &mut base,
+                Report {
+                    exact,
+                    ranked: false,
+                },
+                false,
+            );
+            grid.enumerate_pairs_with(
+                &mut wide,
+                Report {
+                    exact,
+                    ranked: false,
+                },
+                true,
+            );
             assert!(base.len() > 1000, "{}", base.len());
             assert_eq!(base.to_vec(), wide.to_vec());
         }
@@ -1161,7 +1173,14 @@ mod tests {
         grid.overlapping_pairs(&mut plain);
         for avx2 in [false, true] {
             let mut ranked = PairSet::new();
-            grid.enumerate_pairs_with(&mut ranked, true, true, avx2);
+            grid.enumerate_pairs_with(
+                &mut ranked,
+                Report {
+                    exact: true,
+                    ranked: true,
+                },
+                avx2,
+            );
             let back: Vec<[u32; 2]> = ranked
                 .iter()
                 .map(|[a, b]| [order[a as usize], order[b as usize]])
