@@ -247,7 +247,7 @@ impl Simulation {
                 TorqueSpec::Chain => TorqueModel::Chain,
                 TorqueSpec::Local => TorqueModel::Local,
             },
-            solver: LinearSolver::Hand,
+            solver: LinearSolver::Structured,
         };
         let mut sim = Self {
             initial: state.clone(),

@@ -251,7 +251,7 @@ fn reference_trajectory(k: f64, damping: Damping, dt: f64) -> anyhow::Result<Tra
         dt: dt as Real,
         integrator: Integrator::Rk4,
         torque: TorqueModel::Chain,
-        solver: LinearSolver::Hand,
+        solver: LinearSolver::Structured,
     };
     // The step is stored in f32: time advances by the f32 value actually used.
     let step = f64::from(settings.dt);
@@ -300,7 +300,7 @@ fn timed_run(
         dt: dt as Real,
         integrator,
         torque: TorqueModel::Chain,
-        solver: LinearSolver::Hand,
+        solver: LinearSolver::Structured,
     };
     let per_sample = steps_per_second / SAMPLES_PER_SECOND;
     let samples = sample_times().count();
@@ -420,7 +420,7 @@ fn elastica(alpha: f64, segments: usize, model: TorqueModel) -> anyhow::Result<E
             dt: 0.1,
             integrator: Integrator::ImplicitCoupled,
             torque: model,
-            solver: LinearSolver::Hand,
+            solver: LinearSolver::Structured,
         };
         let used = strand.relax(&env, &settings, 500, 1e-12, &mut scratch);
         iterations = iterations.zip(used).map(|(a, b)| a + b);

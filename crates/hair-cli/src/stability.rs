@@ -221,7 +221,7 @@ fn run_cell(
         dt: dt as Real,
         integrator,
         torque: TorqueModel::Chain,
-        solver: LinearSolver::Hand,
+        solver: LinearSolver::Structured,
     };
     let steps = (strand_setup::DURATION * f64::from(steps_per_second)).round() as u32;
     let (mut first, mut last, mut peak) = (0.0f64, 0.0f64, 0.0f64);

@@ -1,5 +1,6 @@
 //! Criterion benches of one step of 10,000 skeletons x 20 points, per integrator, on one thread
-//! and on all threads (the same workload as `hair bench dynamics`).
+//! and on all threads (the same workload as `hair bench dynamics`); the coupled implicit step also
+//! with the dense LU in place of the structured solve (`implicit_coupled_hand`).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -8,8 +9,8 @@ use criterion::{
     BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use hair_dynamics::{
-    Environment, Integrator, Material, Point, Real, Root, SkeletonDesc, StepSettings, StrandState,
-    Style, Vector, style_points,
+    Environment, Integrator, LinearSolver, Material, Point, Real, Root, SkeletonDesc, StepSettings,
+    StrandState, Style, Vector, style_points,
 };
 use nalgebra::{Rotation3, Unit};
 
@@ -93,14 +94,24 @@ fn bench_step(c: &mut Criterion) {
             .sample_size(10)
             .warm_up_time(Duration::from_millis(500))
             .measurement_time(Duration::from_secs(3));
-        for integrator in Integrator::ALL {
+        let variants = Integrator::ALL
+            .map(|integrator| (integrator, LinearSolver::default()))
+            .into_iter()
+            .chain([(Integrator::ImplicitCoupled, LinearSolver::Hand)]);
+        for (integrator, solver) in variants {
             let settings = StepSettings {
                 dt: DT,
                 integrator,
+                solver,
                 ..StepSettings::default()
             };
+            let name = if solver == LinearSolver::default() {
+                integrator.name().to_string()
+            } else {
+                format!("{}_{}", integrator.name(), solver.name())
+            };
             let mut state = scene();
-            group.bench_function(BenchmarkId::from_parameter(integrator.name()), |b| {
+            group.bench_function(BenchmarkId::from_parameter(name), |b| {
                 let mut run = || {
                     b.iter(|| {
                         // A blown-up skeleton is restored and reported; the cost is still one step.

@@ -7,7 +7,7 @@
 use crate::TorqueModel;
 use crate::bend::Bend;
 use crate::environment::LocalEnv;
-use nalgebra::{Matrix3, RealField, Vector3};
+use nalgebra::{Matrix2x3, Matrix3, Matrix3x2, RealField, Vector2, Vector3};
 
 /// Read-only per-node parameters of one strand (slices of length `n`).
 #[derive(Clone, Copy)]
@@ -56,8 +56,20 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub sum_f: Vec<Vector3<T>>,
     pub sum_fp: Vec<T>,
     pub torque_vec: Vec<Vector3<T>>,
-    /// Dense Jacobian of the external torque, row-major `2m x 2m`.
+    /// Dense Jacobian of the external torque, row-major `2m x 2m` (dense solvers only).
     pub jac: Vec<T>,
+    // The structured solve, per joint: the Jacobian's generators `V` (columns beyond the joint)
+    // and `W` (columns before it), the elimination's gain `E` and offset `e`, the prefix sum of
+    // the axes weighted by a vector, and the diagonal and right-hand side of the joint's rows.
+    pub sweep_v: Vec<Matrix3x2<T>>,
+    pub sweep_w: Vec<Matrix3x2<T>>,
+    pub sweep_gain: Vec<Matrix2x3<T>>,
+    pub sweep_offset: Vec<Vector2<T>>,
+    pub sweep_prefix: Vec<Vector3<T>>,
+    pub sweep_diag: Vec<Vector2<T>>,
+    pub sweep_rhs: Vec<Vector2<T>>,
+    /// Structured solves that failed their residual check and were redone densely.
+    pub dense_fallbacks: usize,
     // Integrator stages.
     pub q0: Vec<T>,
     pub w0: Vec<T>,
@@ -98,8 +110,17 @@ impl<T: RealField + Copy> Scratch<T> {
         grow(&mut self.perm, m2, 0);
         grow(&mut self.len0, n, T::zero());
         if jacobian {
+            // The dense buffers too: the structured solve falls back to them.
             grow(&mut self.jac, m2 * m2, T::zero());
             grow(&mut self.lu, m2 * m2, T::zero());
+            let joints = m2 / 2;
+            grow(&mut self.sweep_v, joints, Matrix3x2::zeros());
+            grow(&mut self.sweep_w, joints, Matrix3x2::zeros());
+            grow(&mut self.sweep_gain, joints, Matrix2x3::zeros());
+            grow(&mut self.sweep_offset, joints, Vector2::zeros());
+            grow(&mut self.sweep_prefix, joints, z3);
+            grow(&mut self.sweep_diag, joints, Vector2::zeros());
+            grow(&mut self.sweep_rhs, joints, Vector2::zeros());
         }
     }
 }
@@ -210,8 +231,8 @@ pub(crate) fn forces<T: RealField + Copy>(
 
 /// Generalised torques and diagonal inertia of every coordinate, after [`forces`].
 ///
-/// With `jacobian`, also fills `sc.jac` with the derivative of the external torque with respect to
-/// every coordinate, holding the forces fixed (see `docs/dynamics.md`).
+/// With `jacobian`, also keeps the suffix sums the derivative of the external torque is made of
+/// (see [`jacobian_of_load`] and `docs/dynamics.md`).
 #[expect(
     clippy::too_many_arguments,
     reason = "the kernel's inputs are all distinct slices"
@@ -227,7 +248,6 @@ pub(crate) fn torques<T: RealField + Copy>(
     sc: &mut Scratch<T>,
 ) {
     let n = length.len();
-    let m2 = 2 * (n - 1);
     let floor = T::from_f64(1e-2).unwrap_or_else(T::zero);
     // Suffix sums from the tip: force, mass-weighted moments for the chain inertia.
     let mut s_f = Vector3::zeros();
@@ -308,9 +328,6 @@ pub(crate) fn torques<T: RealField + Copy>(
             sc.torque_vec[i] = torque;
         }
     }
-    if jacobian {
-        jacobian_of_load(n, m2, model, sc);
-    }
 }
 
 #[inline]
@@ -326,40 +343,58 @@ fn two<T: RealField + Copy>(x: T) -> T {
 /// with the suffix sums `P = sum x F^T`, `S = sum F`, `sigma = sum F . x` over the nodes k moves.
 /// For k proximal to l the whole of l's subtree turns rigidly, axis included:
 /// `J_lk = a_k . w_l`, `w_l = P_l^T a_l - (a_l . c_l) S_l - (sigma_l - S_l . c_l) a_l + a_l x T_l`.
-fn jacobian_of_load<T: RealField + Copy>(
-    n: usize,
+pub(crate) fn jacobian_of_load<T: RealField + Copy>(
     m2: usize,
     model: TorqueModel,
     sc: &mut Scratch<T>,
 ) {
+    let mut jac = std::mem::take(&mut sc.jac);
     for l in 0..m2 {
         let jl = l / 2 + 1;
         let al = sc.axes[l];
-        let cl = sc.pos[jl - 1];
-        let (pl, slf, sfp) = (sc.sum_pf[jl], sc.sum_f[jl], sc.sum_fp[jl]);
-        let wl = pl.transpose() * al - slf * al.dot(&cl) - al * (sfp - slf.dot(&cl))
-            + al.cross(&sc.torque_vec[jl]);
-        let row = &mut sc.jac[l * m2..(l + 1) * m2];
+        let wl = load_row_generator(sc, jl, al);
+        let row = &mut jac[l * m2..(l + 1) * m2];
         for (k, entry) in row.iter_mut().enumerate() {
             let jk = k / 2 + 1;
             let ak = sc.axes[k];
             *entry = if jk < jl {
                 ak.dot(&wl)
             } else if jk == jl || model == TorqueModel::Chain {
-                // For the chain, the nodes moved are those distal to jk, whose sums sit at jk.
-                let ck = sc.pos[jk - 1];
-                let (pk, sk, sfk) = match model {
-                    TorqueModel::Chain => (sc.sum_pf[jk], sc.sum_f[jk], sc.sum_fp[jk]),
-                    TorqueModel::Local => (pl, slf, sfp),
-                };
-                let vk = pk * ak - ck * sk.dot(&ak) - ak * (sfk - sk.dot(&ck));
-                al.dot(&vk)
+                // For the chain, the nodes moved are those distal to jk, whose sums sit at jk;
+                // for the local model only jk == jl is left, whose sums are the node's own.
+                al.dot(&load_column_generator(sc, jk, ak))
             } else {
                 T::zero()
             };
         }
     }
-    let _ = n;
+    sc.jac = jac;
+}
+
+/// `w_l` of [`jacobian_of_load`] for a coordinate of joint `j` with axis `a`: row `l` of the
+/// Jacobian left of `l`'s joint is `a_k . w_l`.
+#[inline]
+pub(crate) fn load_row_generator<T: RealField + Copy>(
+    sc: &Scratch<T>,
+    j: usize,
+    a: Vector3<T>,
+) -> Vector3<T> {
+    let c = sc.pos[j - 1];
+    let (p, s, sigma) = (sc.sum_pf[j], sc.sum_f[j], sc.sum_fp[j]);
+    p.transpose() * a - s * a.dot(&c) - a * (sigma - s.dot(&c)) + a.cross(&sc.torque_vec[j])
+}
+
+/// `V_k` of [`jacobian_of_load`] for a coordinate of joint `j` with axis `a`: column `k` of the
+/// Jacobian at and below `k`'s joint is `a_l . V_k`.
+#[inline]
+pub(crate) fn load_column_generator<T: RealField + Copy>(
+    sc: &Scratch<T>,
+    j: usize,
+    a: Vector3<T>,
+) -> Vector3<T> {
+    let c = sc.pos[j - 1];
+    let (p, s, sigma) = (sc.sum_pf[j], sc.sum_f[j], sc.sum_fp[j]);
+    p * a - c * s.dot(&a) - a * (sigma - s.dot(&c))
 }
 
 /// Writes the node positions of a strand from `q` and `length` only (no velocities).

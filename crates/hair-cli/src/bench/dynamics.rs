@@ -88,7 +88,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 dt: args.dt as Real,
                 integrator,
                 torque: TorqueModel::Chain,
-                solver: LinearSolver::Hand,
+                solver: LinearSolver::Structured,
             },
             state: build(args.skeletons, args.k)?,
             batch: 1,

@@ -6,7 +6,7 @@
 //! | [`Integrator::SymplecticEuler`] | velocity first, then angle | stiff springs, steps above `2 / omega` |
 //! | [`Integrator::Rk4`] | classic fourth order | stiff springs, steps above about `2.8 / omega` |
 //! | [`Integrator::ImplicitAngular`] | Ward & Lin Appendix A per angle, damping folded in | loads treated explicitly: gravity-dominated soft strands at large steps |
-//! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one dense solve per strand | none found in the stability sweep |
+//! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one `O(n)` structured solve per strand | none found in the stability sweep |
 
 mod implicit_coupled;
 
@@ -31,7 +31,8 @@ pub enum Integrator {
     Rk4,
     /// Ward & Lin's per-angle implicit step (Appendix A) with damping folded in; loads explicit.
     ImplicitAngular,
-    /// Linearly implicit Euler on every angle of a strand at once (dense solve per strand).
+    /// Linearly implicit Euler on every angle of a strand at once (one linear solve per strand,
+    /// see [`LinearSolver`]).
     ImplicitCoupled,
 }
 
@@ -103,7 +104,7 @@ impl Default for StepSettings {
             dt: 1.0 / 60.0,
             integrator: Integrator::ImplicitCoupled,
             torque: TorqueModel::Chain,
-            solver: LinearSolver::Hand,
+            solver: LinearSolver::Structured,
         }
     }
 }
@@ -117,6 +118,9 @@ pub struct StepReport {
     pub dormant: usize,
     /// Bonds broken at the end of the step.
     pub bonds_broken: usize,
+    /// Strands whose [`LinearSolver::Structured`] solve failed its residual check and was redone
+    /// by the dense LU (0 for the other solvers and integrators).
+    pub dense_fallbacks: usize,
 }
 
 /// Advances one strand by one step in the scalar type `T`. Returns the first non-finite node, if
@@ -192,7 +196,7 @@ pub(crate) fn step_strand<T: RealField + Copy>(
         }
         Integrator::ImplicitCoupled => {
             eval(root, q, w, length, true, sc);
-            implicit_coupled::solve_step(root, p, q, w, h, settings.solver, sc);
+            implicit_coupled::solve_step(root, p, q, w, h, settings, sc);
             symplectic_root(root, sc.root_acc, h);
         }
     }
@@ -356,23 +360,28 @@ struct Shared<'a> {
 /// Nodes per leaf of the parallel split: big enough to amortise the fork, small enough to balance.
 const GRAIN_NODES: usize = 512;
 
-fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
+/// What a run of skeletons reports: the first that went non-finite (skeleton, node), and the
+/// number of dense fallbacks.
+type RunOutcome = (Option<(usize, usize)>, usize);
+
+fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
     let count = run.roots.len();
     if count > 1 && run.theta.len() > GRAIN_NODES {
         let mid = run.first + count / 2;
         let at = sh.state_offsets[mid] as usize;
         let (a, b) = run.split(mid, at);
         let (ra, rb) = rayon::join(|| run_parallel(a, sh), || run_parallel(b, sh));
-        return ra.or(rb);
+        return (ra.0.or(rb.0), ra.1 + rb.1);
     }
     run_sequential(run, sh)
 }
 
-fn run_sequential(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
+fn run_sequential(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
     SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
         let (sc, q, w) = &mut *guard;
         let mut first_bad = None;
+        let fallbacks_before = sc.dense_fallbacks;
         for local in 0..run.roots.len() {
             let s = run.first + local;
             if !sh.active[s] {
@@ -443,7 +452,7 @@ fn run_sequential(run: Run<'_>, sh: &Shared<'_>) -> Option<(usize, usize)> {
                 run.velocities[lo + k] = sc.vel[k];
             }
         }
-        first_bad
+        (first_bad, sc.dense_fallbacks - fallbacks_before)
     })
 }
 
@@ -472,7 +481,7 @@ impl StrandState {
         let nodes = self.theta.len();
         let skeletons = self.offsets.len();
         let dormant = self.active.iter().filter(|a| !**a).count();
-        let bad = {
+        let (bad, dense_fallbacks) = {
             let sh = Shared {
                 state_offsets: &self.offsets,
                 counts: &self.counts,
@@ -494,7 +503,7 @@ impl StrandState {
             // The run borrows only its own fields: `sh` holds others.
             let run = crate::run::whole_run!(self);
             if skeletons == 0 {
-                None
+                (None, 0)
             } else {
                 run_parallel(run, &sh)
             }
@@ -515,6 +524,7 @@ impl StrandState {
             integrated: skeletons - dormant,
             dormant,
             bonds_broken,
+            dense_fallbacks,
         })
     }
 }

@@ -39,7 +39,7 @@ pub fn settings(dt: Real, integrator: Integrator, torque: TorqueModel) -> StepSe
         dt,
         integrator,
         torque,
-        solver: LinearSolver::Hand,
+        solver: LinearSolver::Structured,
     }
 }
 
