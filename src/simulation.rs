@@ -66,6 +66,9 @@ pub struct StepStats {
     pub max_penetration_m: f64,
     /// Kinetic energy of the simulated nodes (J).
     pub kinetic_energy: f64,
+    /// Skeletons whose structured implicit solve failed its residual check and was redone by the
+    /// dense LU (`hair_dynamics::StepReport::dense_fallbacks`).
+    pub dense_fallbacks: usize,
     /// Rendered vertices.
     pub render_vertices: usize,
     /// FNV-1a hash of the state's float bits.
@@ -828,7 +831,7 @@ impl Simulation {
         stats.skeletons = self.front_nodes.len();
         stats.active = front_active;
         stats.dormant = self.front_nodes.len() - front_active;
-        let _ = report;
+        stats.dense_fallbacks = report.dense_fallbacks;
         // salon (issue 8): the tool script's events and the pressed tools, after the dynamics.
         stats.salon = self.salon.step(
             &mut self.state,

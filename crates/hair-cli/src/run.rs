@@ -77,6 +77,8 @@ pub struct Summary {
     pub max_penetration_m: f64,
     /// The penetration tolerance of the scene (m).
     pub tolerance_m: f64,
+    /// Structured implicit solves redone by the dense LU, over every step.
+    pub dense_fallbacks: usize,
     /// Hash of the final state's float bits (hex).
     pub state_hash: String,
     /// Salon tool counters at the end (water, bonds, cuts, fallen pieces, grabbed points).
@@ -148,6 +150,7 @@ pub fn simulate(
         let mut max_pen: f64 = 0.0;
         let (mut active, mut dormant, mut steps) = (0.0f64, 0.0f64, 0.0f64);
         let mut last = StepStats::default();
+        let mut dense_fallbacks = 0;
         for frame in 0..frames {
             let mut ms_frame = 0.0;
             for _ in 0..substeps {
@@ -165,6 +168,7 @@ pub fn simulate(
                 }
                 active += s.active as f64;
                 dormant += s.dormant as f64;
+                dense_fallbacks += s.dense_fallbacks;
                 steps += 1.0;
                 last = s;
             }
@@ -209,6 +213,7 @@ pub fn simulate(
             mean_dormant: dormant / steps.max(1.0),
             max_penetration_m: max_pen,
             tolerance_m: f64::from(loaded.scene.collision.tolerance),
+            dense_fallbacks,
             state_hash: format!("{:016x}", sim.state_hash()),
             salon: last.salon,
         };

@@ -9,6 +9,13 @@ use crate::bend::{Bend, bend_between};
 use crate::run::{Run, for_each_skeleton};
 use crate::{DynamicsError, Point, Real, StrandState, Vector};
 use nalgebra::Matrix3;
+use std::cell::RefCell;
+use std::ops::Range;
+
+thread_local! {
+    /// World axes `(x, y)` of each joint of the skeleton being constrained, by node.
+    static JOINT_AXES: RefCell<Vec<(Vector, Vector)>> = const { RefCell::new(Vec::new()) };
+}
 
 /// Move a node by `delta` (m, head frame).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,9 +63,68 @@ pub(crate) fn fit_angles(
     }
 }
 
+/// [`fit_angles`] on skeleton `s` (nodes `r` of `run`), then its node positions and velocities
+/// from the new angles, in one pass: the same arithmetic as `fit_angles` followed by
+/// `Run::refresh`, with each bend evaluated once instead of twice.
+fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point]) {
+    let root = &run.roots[s - run.first];
+    let mut rot = root.rotation;
+    let mut position = root.position;
+    let mut velocity = if root.free {
+        root.velocity
+    } else {
+        Vector::zeros()
+    };
+    let mut omega = Vector::zeros();
+    run.positions[r.start] = position;
+    run.velocities[r.start] = velocity;
+    for (target, i) in targets.iter().zip(r.clone()).skip(1) {
+        let d = target - position;
+        let norm = d.norm();
+        let (x, y) = if norm > 0.0 && norm.is_finite() {
+            bend_between(&(rot.transpose() * (d / norm)))
+        } else {
+            (run.theta[i], run.phi[i])
+        };
+        run.theta[i] = x;
+        run.phi[i] = y;
+        let bend = Bend::new(x, y);
+        let ax = rot * bend.axis_x;
+        let ay = rot * bend.axis_y;
+        rot *= bend.rotation;
+        let segment = rot.column(2).into_owned() * run.length[i];
+        omega += ax * run.omega_theta[i] + ay * run.omega_phi[i];
+        position += segment;
+        velocity += omega.cross(&segment);
+        run.positions[i] = position;
+        run.velocities[i] = velocity;
+    }
+}
+
+/// World axes of the joints of nodes `0..=last` of skeleton `s` (nodes from `lo` in `run`) into
+/// `axes` (node 0, the root, has none: zeros).
+fn joint_axes(run: &Run<'_>, s: usize, lo: usize, last: usize, axes: &mut Vec<(Vector, Vector)>) {
+    axes.clear();
+    axes.push((Vector::zeros(), Vector::zeros()));
+    let mut rot = run.roots[s - run.first].rotation;
+    for i in lo + 1..=lo + last {
+        let bend = Bend::new(run.theta[i], run.phi[i]);
+        axes.push((rot * bend.axis_x, rot * bend.axis_y));
+        rot *= bend.rotation;
+    }
+}
+
 /// Removes the approach of node `j` (within skeleton `s`, whose nodes start at `lo` in `run`)
 /// along the constraint's normal that its own joint causes, and applies friction.
-fn constrain_node(run: &mut Run<'_>, s: usize, lo: usize, j: usize, c: &VelocityConstraint) {
+/// `axes` are the skeleton's joint axes from [`joint_axes`] (the angles do not change here).
+fn constrain_node(
+    run: &mut Run<'_>,
+    s: usize,
+    lo: usize,
+    j: usize,
+    c: &VelocityConstraint,
+    axes: &[(Vector, Vector)],
+) {
     let root = &mut run.roots[s - run.first];
     let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
     if j == 0 {
@@ -73,13 +139,7 @@ fn constrain_node(run: &mut Run<'_>, s: usize, lo: usize, j: usize, c: &Velocity
         return;
     }
     let i = lo + j;
-    // World axes of the node's joint, from the parent's frame.
-    let mut rot = root.rotation;
-    for k in lo + 1..i {
-        rot *= Bend::new(run.theta[k], run.phi[k]).rotation;
-    }
-    let bend = Bend::new(run.theta[i], run.phi[i]);
-    let (ax, ay) = (rot * bend.axis_x, rot * bend.axis_y);
+    let (ax, ay) = axes[j];
     let r = run.positions[i] - run.positions[i - 1];
     // Normal velocity of the node due to its own joint: g . w, g = (n . (ax x r), n . (ay x r)).
     let (gx, gy) = (n.dot(&ax.cross(&r)), n.dot(&ay.cross(&r)));
@@ -138,16 +198,7 @@ impl StrandState {
                 // A free root follows its correction like any node.
                 root.position = targets_ref[g.start];
             }
-            let root = *root;
-            fit_angles(
-                &root.rotation,
-                root.position,
-                &targets_ref[g],
-                &run.length[r.clone()],
-                &mut run.theta[r.clone()],
-                &mut run.phi[r.clone()],
-            );
-            run.refresh(s, r);
+            refit_skeleton(run, s, r, &targets_ref[g]);
         });
         self.target_scratch = targets;
         self.touched_scratch = touched;
@@ -215,10 +266,15 @@ impl StrandState {
             let s = touched_ref[k] as usize;
             let r = run.local_nodes(s, offsets, counts);
             let group = &order_ref[groups_ref[k] as usize..groups_ref[k + 1] as usize];
-            for &ci in group {
-                let c = &constraints[ci as usize];
-                constrain_node(run, s, r.start, c.node as usize - offsets[s] as usize, c);
-            }
+            let local = |ci: u32| constraints[ci as usize].node as usize - offsets[s] as usize;
+            let last = group.iter().map(|&ci| local(ci)).max().unwrap_or(0);
+            JOINT_AXES.with(|cell| {
+                let mut axes = cell.borrow_mut();
+                joint_axes(run, s, r.start, last, &mut axes);
+                for &ci in group {
+                    constrain_node(run, s, r.start, local(ci), &constraints[ci as usize], &axes);
+                }
+            });
             run.refresh(s, r);
         });
         self.order_scratch = order;
