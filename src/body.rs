@@ -33,6 +33,83 @@ pub struct BodyModel {
     /// Whether every edge joins exactly two triangles wound opposite ways: a closed surface,
     /// whose signed distance changes no faster than the point moves.
     pub closed: bool,
+    /// The pseudo-normals that give the side of a point whose closest surface point is on an
+    /// edge or a vertex, for a closed surface (`None` for an open one).
+    pub pseudo_normals: Option<PseudoNormals>,
+}
+
+/// Angle-weighted pseudo-normals of a closed, consistently wound mesh (Baerentzen and Aanaes,
+/// 2005): at a vertex, the incident faces' normals weighted by their angles there; on an edge,
+/// the sum of its two faces' normals. For a point whose closest surface point lies on a vertex
+/// or an edge, the sign of `(p - q) . n` with that feature's pseudo-normal is the side of the
+/// surface the point is on: one dot product, where comparing the faces that share the feature
+/// needs a second search of the BVH.
+#[derive(Clone, Debug, Default)]
+pub struct PseudoNormals {
+    /// Per triangle: its vertices' pseudo-normals (in winding order), then its edges' (01, 12, 20).
+    per_triangle: Vec<[Vector; 6]>,
+}
+
+impl PseudoNormals {
+    /// The pseudo-normals of a closed mesh (see [`is_closed`]); `None` if it is not closed.
+    pub fn new(vertices: &[Point], triangles: &[[u32; 3]]) -> Option<Self> {
+        if !is_closed(triangles) {
+            return None;
+        }
+        let face: Vec<Vector> = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| vertices[i as usize]);
+                (b - a)
+                    .cross(&(c - a))
+                    .try_normalize(0.0)
+                    .unwrap_or_else(Vector::zeros)
+            })
+            .collect();
+        let mut at_vertex = vec![Vector::zeros(); vertices.len()];
+        for (t, n) in triangles.iter().zip(&face) {
+            for k in 0..3 {
+                let o = vertices[t[k] as usize];
+                let (u, v) = (
+                    vertices[t[(k + 1) % 3] as usize] - o,
+                    vertices[t[(k + 2) % 3] as usize] - o,
+                );
+                at_vertex[t[k] as usize] += n * u.angle(&v);
+            }
+        }
+        // Each undirected edge's two faces, found through the sorted directed edges.
+        let mut edges: Vec<((u32, u32), u32)> = triangles
+            .iter()
+            .enumerate()
+            .flat_map(|(i, t)| (0..3).map(move |k| ((t[k], t[(k + 1) % 3]), i as u32)))
+            .collect();
+        edges.sort_unstable();
+        let other_face = |a: u32, b: u32| {
+            edges
+                .binary_search_by(|probe| probe.0.cmp(&(b, a)))
+                .map(|k| edges[k].1 as usize)
+                .ok()
+        };
+        let per_triangle = triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let edge = |k: usize| {
+                    let twin = other_face(t[k], t[(k + 1) % 3]).map_or(face[i], |j| face[j]);
+                    face[i] + twin
+                };
+                [
+                    at_vertex[t[0] as usize],
+                    at_vertex[t[1] as usize],
+                    at_vertex[t[2] as usize],
+                    edge(0),
+                    edge(1),
+                    edge(2),
+                ]
+            })
+            .collect();
+        Some(Self { per_triangle })
+    }
 }
 
 /// Whether `triangles` form a closed, consistently wound surface: each directed edge appears
@@ -137,21 +214,22 @@ impl DistanceField {
     }
 
     #[inline]
-    fn sample(&self, body: &Bvh, x: usize, y: usize, z: usize) -> Real {
+    fn sample(&self, body: &BodyModel, x: usize, y: usize, z: usize) -> Real {
         let k = x + self.dims[0] * (y + self.dims[1] * z);
         let bits = self.samples[k].load(Ordering::Relaxed);
         if bits != UNKNOWN {
             return Real::from_bits(bits);
         }
         let c = self.min + Vector::new(x as Real, y as Real, z as Real) * self.h;
-        let d = exact_signed_distance(body, &c).map_or(Real::MAX, |(d, _, _)| d);
+        let d = exact_signed_distance(&body.bvh, body.pseudo_normals.as_ref(), &c)
+            .map_or(Real::MAX, |(d, _, _)| d);
         self.samples[k].store(d.to_bits(), Ordering::Relaxed);
         d
     }
 
     /// Interpolated signed distance (negative inside) and outward normal at `p`; `None` outside
     /// the field (farther than its margin from the body).
-    pub fn query(&self, body: &Bvh, p: &Point) -> Option<(Real, Vector)> {
+    pub fn query(&self, body: &BodyModel, p: &Point) -> Option<(Real, Vector)> {
         if self.samples.is_empty() {
             return None;
         }
@@ -188,9 +266,9 @@ impl DistanceField {
         let dy = lerp(x10 - x00, x11 - x01, tz);
         let dz = y1 - y0;
         let g = Vector::new(dx, dy, dz);
-        let n = g
-            .try_normalize(1e-12)
-            .or_else(|| exact_signed_distance(body, p).map(|(_, n, _)| n))?;
+        let n = g.try_normalize(1e-12).or_else(|| {
+            exact_signed_distance(&body.bvh, body.pseudo_normals.as_ref(), p).map(|(_, n, _)| n)
+        })?;
         Some((d, n))
     }
 
@@ -209,7 +287,7 @@ impl DistanceField {
                 let f = |a: usize| ((a as f64 * 0.618_033_988_7).fract() as Real) * 2.0 - 1.0;
                 let off = Vector::new(f(3 * k + 1), f(3 * k + 2), f(3 * k + 3)) * band;
                 let p = v + off;
-                match (self.query(&body.bvh, &p), body.signed_distance(&p)) {
+                match (self.query(body, &p), body.signed_distance(&p)) {
                     (Some((a, _)), Some((b, _, _))) => (a - b).abs(),
                     _ => 0.0,
                 }
@@ -218,7 +296,11 @@ impl DistanceField {
     }
 }
 
-fn exact_signed_distance(bvh: &Bvh, p: &Point) -> Option<(Real, Vector, Point)> {
+fn exact_signed_distance(
+    bvh: &Bvh,
+    pseudo_normals: Option<&PseudoNormals>,
+    p: &Point,
+) -> Option<(Real, Vector, Point)> {
     thread_local! {
         static TIES: std::cell::RefCell<Vec<hair_ssv::MeshContact>> =
             const { std::cell::RefCell::new(Vec::new()) };
@@ -243,16 +325,32 @@ fn exact_signed_distance(bvh: &Bvh, p: &Point) -> Option<(Real, Vector, Point)> 
     // on an edge or vertex shared by several triangles, the first one found may face away in a
     // concave crease; the face most squarely facing the point decides the side (it is the one
     // whose plane the point is farthest from).
-    let on_edge = bvh.triangle(hit.triangle as usize).is_none_or(|tri| {
-        (0..3).any(|e| {
-            let (a, b) = (tri[e], tri[(e + 1) % 3]);
-            hair_ssv::query::point_segment(&q, &a, &b).dist_sq <= 1e-8 * (b - a).norm_squared()
-        })
-    });
-    if !on_edge {
+    let tri = bvh.triangle(hit.triangle as usize)?;
+    let on = |e: usize| {
+        let (a, b) = (tri[e], tri[(e + 1) % 3]);
+        hair_ssv::query::point_segment(&q, &a, &b).dist_sq <= 1e-8 * (b - a).norm_squared()
+    };
+    let on_edges = [on(0), on(1), on(2)];
+    let side = |facing: Real| {
         let outside = facing >= 0.0;
         let normal = if outside { dir } else { -dir };
-        return Some((if outside { dist } else { -dist }, normal, q));
+        Some((if outside { dist } else { -dist }, normal, q))
+    };
+    if !on_edges.iter().any(|&e| e) {
+        return side(facing);
+    }
+    if let Some(normals) = pseudo_normals.and_then(|n| n.per_triangle.get(hit.triangle as usize)) {
+        // On two edges is on the vertex they share: 01 and 12 meet at 1, 12 and 20 at 2, 20 and
+        // 01 at 0.
+        let feature = match on_edges {
+            [true, true, _] => 1,
+            [_, true, true] => 2,
+            [true, _, true] => 0,
+            [true, false, false] => 3,
+            [false, true, false] => 4,
+            _ => 5,
+        };
+        return side(dir.dot(&normals[feature]));
     }
     TIES.with(|ties| {
         let mut ties = ties.borrow_mut();
@@ -423,6 +521,7 @@ impl BodyModel {
         };
         let field = DistanceField::new(&vertices, 2.0 * NEAR_MARGIN, FIELD_SAMPLES);
         let closed = is_closed(&triangles);
+        let pseudo_normals = PseudoNormals::new(&vertices, &triangles);
         let mut body = Self {
             vertices,
             triangles,
@@ -431,6 +530,7 @@ impl BodyModel {
             near: NearField::default(),
             field,
             closed,
+            pseudo_normals,
         };
         body.near = NearField::build(&body, NEAR_MARGIN);
         Ok(Some(body))
@@ -439,7 +539,7 @@ impl BodyModel {
     /// Signed distance of a point to the surface (negative inside) with the outward normal and the
     /// closest surface point, by the exact BVH query.
     pub fn signed_distance(&self, p: &Point) -> Option<(Real, Vector, Point)> {
-        exact_signed_distance(&self.bvh, p)
+        exact_signed_distance(&self.bvh, self.pseudo_normals.as_ref(), p)
     }
 
     /// [`BodyModel::distance`] where it may be below `reach`, else `None`: points that the
@@ -484,7 +584,7 @@ impl BodyModel {
                 use hair_ssv::SurfaceMap;
                 maps.lookup(p).map(|s| (s.distance, s.normal))
             }
-            (CollisionMethod::Field, _) => self.field.query(&self.bvh, p),
+            (CollisionMethod::Field, _) => self.field.query(self, p),
             _ => self.signed_distance(p).map(|(d, n, _)| (d, n)),
         }
     }
@@ -578,6 +678,95 @@ mod tests {
             }
             inside += usize::from(deep);
             outside += usize::from(clear);
+        }
+    }
+
+    /// On closed bodies the pseudo-normals decide a point's side exactly as comparing the faces
+    /// that share its closest edge or vertex does (the second BVH search they replace), on points
+    /// near vertices, where closest points on edges and vertices are common.
+    #[test]
+    fn pseudo_normals_decide_the_side_as_the_faces_do() {
+        let head = BodyModel::from_spec(&BodySpec::Head { resolution: 32 }, Path::new("."))
+            .unwrap()
+            .unwrap();
+        let torus = BodyModel::from_spec(
+            &BodySpec::Torus {
+                center: [0.0, 0.0, 0.0],
+                major: 0.1,
+                minor: 0.03,
+                wrinkles: 8,
+                depth: 0.2,
+            },
+            Path::new("."),
+        )
+        .unwrap()
+        .unwrap();
+        let mut rng = SplitMix(11);
+        for body in [&head, &torus] {
+            let normals = body
+                .pseudo_normals
+                .as_ref()
+                .expect("a closed body has them");
+            let (mut on_features, mut inside) = (0, 0);
+            for k in 0..6000 {
+                let v = body.vertices[(k * 7919) % body.vertices.len()];
+                let off = Vector::new(
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                );
+                let p = v + off * [0.001, 0.01, 0.03][k % 3];
+                let with = exact_signed_distance(&body.bvh, Some(normals), &p).unwrap();
+                let without = exact_signed_distance(&body.bvh, None, &p).unwrap();
+                assert_eq!(with.0, without.0, "{p:?}");
+                assert_eq!(with.1, without.1, "{p:?}");
+                inside += usize::from(with.0 < 0.0);
+                let pss = hair_ssv::Ssv::Point(hair_ssv::Pss::new(p, 0.0));
+                let hit = body.bvh.closest(&pss).unwrap();
+                let tri = body.bvh.triangle(hit.triangle as usize).unwrap();
+                let q = hit.closest.on_b;
+                on_features += usize::from((0..3).any(|e| {
+                    let (a, b) = (tri[e], tri[(e + 1) % 3]);
+                    hair_ssv::query::point_segment(&q, &a, &b).dist_sq
+                        <= 1e-8 * (b - a).norm_squared()
+                }));
+            }
+            // Both sides and many edge and vertex cases were exercised.
+            assert!(on_features > 500 && inside > 500, "{on_features} {inside}");
+        }
+        let open = PseudoNormals::new(&head.vertices, &head.triangles[1..]);
+        assert!(open.is_none());
+        // A cube: sharp edges and corners, where a wrong feature's normal gives the wrong side.
+        let vertices: Vec<Point> = (0..8)
+            .map(|i| Point::new((i & 1) as Real, ((i >> 1) & 1) as Real, (i >> 2) as Real))
+            .collect();
+        let triangles: Vec<[u32; 3]> = vec![
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
+        let bvh = Bvh::new(&vertices, &triangles).unwrap();
+        let normals = PseudoNormals::new(&vertices, &triangles).expect("a cube is closed");
+        for k in 0..4000 {
+            let c = vertices[k % 8];
+            let off = Vector::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            let p = c + off * 0.2;
+            let (d, _, _) = exact_signed_distance(&bvh, Some(&normals), &p).unwrap();
+            let inside = p.coords.iter().all(|&x| (0.0..=1.0).contains(&x));
+            assert_eq!(d < 0.0, inside, "{p:?} {d}");
         }
     }
 
