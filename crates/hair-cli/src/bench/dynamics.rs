@@ -82,13 +82,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .filter(|i| args.only.is_empty() || args.only.iter().any(|n| n == i.name()))
         .collect();
     let mut benches = Vec::new();
-    for &integrator in &chosen {
+    // The coupled step twice: by its structured solve and by the dense LU it replaced (the peer).
+    let variants = chosen.iter().flat_map(|&integrator| {
+        let dense = (integrator == Integrator::ImplicitCoupled).then_some(LinearSolver::Hand);
+        std::iter::once((integrator, LinearSolver::Structured))
+            .chain(dense.map(|solver| (integrator, solver)))
+    });
+    for (integrator, solver) in variants {
         benches.push(Bench {
             settings: StepSettings {
                 dt: args.dt as Real,
                 integrator,
                 torque: TorqueModel::Chain,
-                solver: LinearSolver::Structured,
+                solver,
             },
             state: build(args.skeletons, args.k)?,
             batch: 1,
@@ -97,12 +103,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let one_thread = single.install(|| measure_all(&args, &env, &mut benches))?;
     let all_threads = measure_all(&args, &env, &mut benches)?;
-    let results: Vec<(Integrator, Throughput)> = benches
+    let results: Vec<(String, Throughput)> = benches
         .iter()
         .zip(one_thread.iter().zip(&all_threads))
         .map(|(b, (&one_thread, &all_threads))| {
             (
-                b.settings.integrator,
+                b.label(),
                 Throughput {
                     one_thread,
                     all_threads,
@@ -111,29 +117,40 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )
         })
         .collect();
-    let rate = |i: Integrator| {
+    let rate = |label: &str| {
         results
             .iter()
-            .find(|(j, _)| *j == i)
+            .find(|(j, _)| j == label)
             .map(|(_, t)| (t.one_thread, t.all_threads))
     };
     let (ia, ee) = (
-        rate(Integrator::ImplicitAngular),
-        rate(Integrator::ExplicitEuler),
+        rate(Integrator::ImplicitAngular.name()),
+        rate(Integrator::ExplicitEuler.name()),
     );
     // Cost per step is the inverse of the throughput.
     let ratio = ia.zip(ee).map(|(a, e)| (e.0 / a.0, e.1 / a.1));
+    // How many times faster the structured solve makes the coupled step than the dense LU.
+    let speedup = rate(Integrator::ImplicitCoupled.name())
+        .zip(rate(&dense_label()))
+        .map(|(s, d)| (s.0 / d.0, s.1 / d.1));
 
     if args.json {
         let mut obj = Map::new();
         for (i, t) in &results {
             obj.insert(
-                i.name().to_string(),
+                i.clone(),
                 json!({
                     "node_steps_per_s_1t": t.one_thread.round(),
                     "node_steps_per_s": t.all_threads.round(),
                     "non_finite_steps": t.non_finite_steps,
                 }),
+            );
+        }
+        if let Some((r1, rn)) = speedup {
+            obj.insert("implicit_coupled_structured_over_dense".into(), json!(r1));
+            obj.insert(
+                "implicit_coupled_structured_over_dense_all_threads".into(),
+                json!(rn),
             );
         }
         if let Some((r1, rn)) = ratio {
@@ -170,15 +187,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             threads
         );
         println!(
-            "{:>18} {:>16} {:>16}",
+            "{:>24} {:>16} {:>16}",
             "integrator", "1 thread (M/s)", "all threads (M/s)"
         );
         for (i, t) in &results {
             println!(
-                "{:>18} {:>16.2} {:>16.2}",
-                i.name(),
+                "{:>24} {:>16.2} {:>16.2}",
+                i,
                 t.one_thread / 1e6,
                 t.all_threads / 1e6
+            );
+        }
+        if let Some((r1, rn)) = speedup {
+            println!(
+                "implicit_coupled, structured solve over dense LU: {r1:.2}x as fast (1 thread), {rn:.2}x (all threads)"
             );
         }
         if let Some((r1, rn)) = ratio {
@@ -239,7 +261,29 @@ struct Bench {
     non_finite_steps: usize,
 }
 
+/// The name of the coupled step by the dense LU.
+fn dense_label() -> String {
+    format!(
+        "{}_{}",
+        Integrator::ImplicitCoupled.name(),
+        LinearSolver::Hand.name()
+    )
+}
+
 impl Bench {
+    /// The integrator's name, with the solver's where it is not the default.
+    fn label(&self) -> String {
+        if self.settings.solver == LinearSolver::default() {
+            self.settings.integrator.name().to_string()
+        } else {
+            format!(
+                "{}_{}",
+                self.settings.integrator.name(),
+                self.settings.solver.name()
+            )
+        }
+    }
+
     fn step(&mut self, env: &Environment) -> anyhow::Result<()> {
         match self.state.step(env, &self.settings) {
             Ok(_) => Ok(()),
