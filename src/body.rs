@@ -681,11 +681,8 @@ mod tests {
         }
     }
 
-    /// On closed bodies the pseudo-normals decide a point's side exactly as comparing the faces
-    /// that share its closest edge or vertex does (the second BVH search they replace), on points
-    /// near vertices, where closest points on edges and vertices are common.
-    #[test]
-    fn pseudo_normals_decide_the_side_as_the_faces_do() {
+    /// A coarse procedural head and a wrinkled torus: two closed bodies.
+    fn closed_test_bodies() -> (BodyModel, BodyModel) {
         let head = BodyModel::from_spec(&BodySpec::Head { resolution: 32 }, Path::new("."))
             .unwrap()
             .unwrap();
@@ -701,6 +698,15 @@ mod tests {
         )
         .unwrap()
         .unwrap();
+        (head, torus)
+    }
+
+    /// On closed bodies the pseudo-normals decide a point's side exactly as comparing the faces
+    /// that share its closest edge or vertex does (the second BVH search they replace), on points
+    /// near vertices, where closest points on edges and vertices are common.
+    #[test]
+    fn pseudo_normals_decide_the_side_as_the_faces_do() {
+        let (head, torus) = closed_test_bodies();
         let mut rng = SplitMix(11);
         for body in [&head, &torus] {
             let normals = body
@@ -775,22 +781,8 @@ mod tests {
     /// `distance_within` skips only points the query would put beyond its reach.
     #[test]
     fn near_field_bounds_the_distance_of_closed_bodies() {
-        let head = BodyModel::from_spec(&BodySpec::Head { resolution: 32 }, Path::new("."))
-            .unwrap()
-            .unwrap();
+        let (head, torus) = closed_test_bodies();
         assert!(head.closed);
-        let torus = BodyModel::from_spec(
-            &BodySpec::Torus {
-                center: [0.0, 0.0, 0.0],
-                major: 0.1,
-                minor: 0.03,
-                wrinkles: 8,
-                depth: 0.2,
-            },
-            Path::new("."),
-        )
-        .unwrap()
-        .unwrap();
         assert!(torus.closed);
         assert!(!is_closed(&head.triangles[1..]));
         let mut rng = SplitMix(3);

@@ -420,8 +420,18 @@ mod tests {
         let rows = study["policies"].as_array().unwrap();
         let names: Vec<&str> = rows.iter().map(|r| r["name"].as_str().unwrap()).collect();
         assert_eq!(names[0], "fine");
-        for expected in ["fine+perturbed", "adaptive", "strips", "fine+bvh", "fine+maps"] {
-            assert_eq!(names.iter().filter(|n| **n == expected).count(), 1, "{names:?}");
+        for expected in [
+            "fine+perturbed",
+            "adaptive",
+            "strips",
+            "fine+bvh",
+            "fine+maps",
+        ] {
+            assert_eq!(
+                names.iter().filter(|n| **n == expected).count(),
+                1,
+                "{names:?}"
+            );
         }
         assert_eq!(rows[0]["rms_error_mm"].as_f64(), Some(0.0));
         assert_eq!(rows[0]["cost_ratio"].as_f64(), Some(1.0));
