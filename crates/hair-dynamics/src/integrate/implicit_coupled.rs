@@ -245,11 +245,15 @@ fn structured_solve<T: RealField + Copy>(
         let b = sc.sweep_rhs[j];
         for t in 0..2 {
             let residual = diag[t] - left[t] - right[t] - b[t];
+            let size = diag[t].abs() + left[t].abs() + right[t].abs() + b[t].abs();
+            // `max` would pass over a NaN: an overflowed solve fails here instead.
+            if !(residual.is_finite() && size.is_finite()) {
+                return false;
+            }
             worst = worst.max(residual.abs());
-            scale = scale.max(diag[t].abs() + left[t].abs() + right[t].abs() + b[t].abs());
+            scale = scale.max(size);
         }
     }
-    // NaN compares false: a non-finite solve fails the check too.
     worst <= residual_tolerance::<T>() * scale
 }
 
@@ -574,6 +578,24 @@ mod tests {
             assert!(rate(1.5, 2e-4, 0.05, model) <= 10);
             assert!(rate(1.5, 0.2, 0.05, model) <= 50);
         }
+    }
+
+    /// A solve that overflows (a torque near the largest f32) is declined, not accepted with a
+    /// residual that `max` passed over.
+    #[test]
+    fn an_overflowing_solve_is_declined() {
+        let c = case::<f32>(8, 3, 1.5, 2e-4, false);
+        let model = TorqueModel::Chain;
+        let mut sc = c.evaluated(model);
+        sc.tau[5] = 3e38;
+        assert!(!structured_solve(
+            &c.root,
+            &c.params(),
+            &c.w,
+            0.01,
+            model,
+            &mut sc
+        ));
     }
 
     /// A system whose tip block is singular while the whole is not: the elimination from the
