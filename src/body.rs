@@ -221,8 +221,7 @@ impl DistanceField {
             return Real::from_bits(bits);
         }
         let c = self.min + Vector::new(x as Real, y as Real, z as Real) * self.h;
-        let d = exact_signed_distance(&body.bvh, body.pseudo_normals.as_ref(), &c)
-            .map_or(Real::MAX, |(d, _, _)| d);
+        let d = body.signed_distance(&c).map_or(Real::MAX, |(d, _, _)| d);
         self.samples[k].store(d.to_bits(), Ordering::Relaxed);
         d
     }
@@ -266,9 +265,9 @@ impl DistanceField {
         let dy = lerp(x10 - x00, x11 - x01, tz);
         let dz = y1 - y0;
         let g = Vector::new(dx, dy, dz);
-        let n = g.try_normalize(1e-12).or_else(|| {
-            exact_signed_distance(&body.bvh, body.pseudo_normals.as_ref(), p).map(|(_, n, _)| n)
-        })?;
+        let n = g
+            .try_normalize(1e-12)
+            .or_else(|| body.signed_distance(p).map(|(_, n, _)| n))?;
         Some((d, n))
     }
 
@@ -323,8 +322,9 @@ fn exact_signed_distance(
     let mut facing = dir.dot(&face);
     // A closest point inside the face is the face's alone, and its normal decides. Where it is
     // on an edge or vertex shared by several triangles, the first one found may face away in a
-    // concave crease; the face most squarely facing the point decides the side (it is the one
-    // whose plane the point is farthest from).
+    // concave crease: a closed surface's pseudo-normal of that feature decides; on an open one,
+    // the face most squarely facing the point does (it is the one whose plane the point is
+    // farthest from).
     let tri = bvh.triangle(hit.triangle as usize)?;
     let on = |e: usize| {
         let (a, b) = (tri[e], tri[(e + 1) % 3]);
@@ -520,8 +520,9 @@ impl BodyModel {
             None
         };
         let field = DistanceField::new(&vertices, 2.0 * NEAR_MARGIN, FIELD_SAMPLES);
-        let closed = is_closed(&triangles);
+        // Only a closed surface has pseudo-normals: one closedness test serves both.
         let pseudo_normals = PseudoNormals::new(&vertices, &triangles);
+        let closed = pseudo_normals.is_some();
         let mut body = Self {
             vertices,
             triangles,

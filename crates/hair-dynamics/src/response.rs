@@ -49,17 +49,24 @@ pub(crate) fn fit_angles(
     let mut rot = *frame;
     let mut prev = root;
     for i in 1..targets.len() {
-        let d = targets[i] - prev;
-        let norm = d.norm();
-        let (x, y) = if norm > 0.0 && norm.is_finite() {
-            bend_between(&(rot.transpose() * (d / norm)))
-        } else {
-            (theta[i], phi[i])
-        };
+        let (x, y) = aim(&rot, &prev, &targets[i], (theta[i], phi[i]));
         theta[i] = x;
         phi[i] = y;
         rot *= Bend::new(x, y).rotation;
         prev += rot.column(2) * length[i];
+    }
+}
+
+/// The bend that aims a segment starting at `from`, in the parent frame `rot`, at `target`;
+/// `keep` where the two points coincide.
+#[inline]
+fn aim(rot: &Matrix3<Real>, from: &Point, target: &Point, keep: (Real, Real)) -> (Real, Real) {
+    let d = target - from;
+    let norm = d.norm();
+    if norm > 0.0 && norm.is_finite() {
+        bend_between(&(rot.transpose() * (d / norm)))
+    } else {
+        keep
     }
 }
 
@@ -79,13 +86,7 @@ fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point
     run.positions[r.start] = position;
     run.velocities[r.start] = velocity;
     for (target, i) in targets.iter().zip(r.clone()).skip(1) {
-        let d = target - position;
-        let norm = d.norm();
-        let (x, y) = if norm > 0.0 && norm.is_finite() {
-            bend_between(&(rot.transpose() * (d / norm)))
-        } else {
-            (run.theta[i], run.phi[i])
-        };
+        let (x, y) = aim(&rot, &position, target, (run.theta[i], run.phi[i]));
         run.theta[i] = x;
         run.phi[i] = y;
         let bend = Bend::new(x, y);

@@ -371,6 +371,15 @@ pub(crate) fn jacobian_of_load<T: RealField + Copy>(
     sc.jac = jac;
 }
 
+/// Joint `j`'s pivot `c` and the suffix sums `P`, `S`, `sigma` of the load it carries.
+#[inline]
+fn joint_sums<T: RealField + Copy>(
+    sc: &Scratch<T>,
+    j: usize,
+) -> (Vector3<T>, Matrix3<T>, Vector3<T>, T) {
+    (sc.pos[j - 1], sc.sum_pf[j], sc.sum_f[j], sc.sum_fp[j])
+}
+
 /// `w_l` of [`jacobian_of_load`] for a coordinate of joint `j` with axis `a`: row `l` of the
 /// Jacobian left of `l`'s joint is `a_k . w_l`.
 #[inline]
@@ -379,8 +388,7 @@ pub(crate) fn load_row_generator<T: RealField + Copy>(
     j: usize,
     a: Vector3<T>,
 ) -> Vector3<T> {
-    let c = sc.pos[j - 1];
-    let (p, s, sigma) = (sc.sum_pf[j], sc.sum_f[j], sc.sum_fp[j]);
+    let (c, p, s, sigma) = joint_sums(sc, j);
     p.transpose() * a - s * a.dot(&c) - a * (sigma - s.dot(&c)) + a.cross(&sc.torque_vec[j])
 }
 
@@ -392,8 +400,7 @@ pub(crate) fn load_column_generator<T: RealField + Copy>(
     j: usize,
     a: Vector3<T>,
 ) -> Vector3<T> {
-    let c = sc.pos[j - 1];
-    let (p, s, sigma) = (sc.sum_pf[j], sc.sum_f[j], sc.sum_fp[j]);
+    let (c, p, s, sigma) = joint_sums(sc, j);
     p * a - c * s.dot(&a) - a * (sigma - s.dot(&c))
 }
 

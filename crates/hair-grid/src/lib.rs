@@ -139,19 +139,20 @@
 //! same order (the three `grid_profile` hashes, on the bench scene and on a dump of `wardlin`'s
 //! sections). First, the AVX2 row kernel also drops the box hits whose two sections share an
 //! earlier cell inside the window (one AND and compare of the bit sets per four lanes; a hit it
-//! keeps still goes through the full owner test): there, most box hits are the same pair met
-//! again in its second or third shared cell, and 39% of the hits (3.4 M to 2.05 M per search,
-//! 2.04 M of them candidates) no longer reach the scalar loop; on the bench scene too (2.4 M to
-//! 1.5 M). (The whole owner and neighbour test lane-wise, measured before, cost more than it
-//! saved; this cut-down one does not.) Second, the exact test reads each candidate's core as one
-//! register (a core is eight floats), transposes eight of them in registers, and takes its lane
-//! masks by compare and `movemask` (it was 128 single moves and a loop over the lanes). Third, the lane tests of a batch of candidates run before any of its pairs are
-//! pushed, so that the blocks' chains of divisions and square roots overlap instead of waiting
-//! behind the push loop's mispredicted branches. Callgrind, one thread, `grid_profile pairs 3`:
-//! 1.87 G to 1.47 G instructions on `wardlin`'s sections, 2.61 G to 2.42 G on the bench scene.
-//! In time, on a shared machine that ran 2 to 2.5 times slower than on the days above (old and
-//! new measured alternately): `wardlin`'s sections, one thread, fastest of 15, 66-76 ms before and
-//! 56-66 ms after; `bench grid` `pairs_ms` 57-65 ms before and 56-59 ms after.
+//! keeps still goes through the full owner test): there, most box hits are the same pair met again
+//! in its second or third shared cell, and 39% of the hits (3.4 M to 2.05 M per search, 2.04 M of
+//! them candidates) no longer reach the scalar loop; on the bench scene too (2.4 M to 1.5 M). (The
+//! whole owner and neighbour test lane-wise, measured before, cost more than it saved; this
+//! cut-down one does not.) Second, the exact test reads each candidate's core as one register (a
+//! core is eight floats), transposes eight of them in registers, and takes its lane masks by
+//! compare and `movemask` (it was 128 single moves and a loop over the lanes). Third, the lane
+//! tests of a batch of candidates run before any of its pairs are pushed, so that the blocks'
+//! chains of divisions and square roots overlap instead of waiting behind the push loop's
+//! mispredicted branches. Callgrind, one thread, `grid_profile pairs 3`: 1.87 G to 1.47 G
+//! instructions on `wardlin`'s sections, 2.61 G to 2.42 G on the bench scene. In time, on a shared
+//! machine that ran 2 to 2.5 times slower than on the days above (old and new measured
+//! alternately): `wardlin`'s sections, one thread, fastest of 15, 66-76 ms before and 56-66 ms
+//! after; `bench grid` `pairs_ms` 57-65 ms before and 56-59 ms after.
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are

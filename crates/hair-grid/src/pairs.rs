@@ -481,9 +481,10 @@ impl Grid {
     }
 
     /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's
-    /// segment-segment kernel run lane-wise on the packed lines. It agrees with the scalar kernel up to rounding, so a pair within a rounding
-    /// band of the margin (and any pair that is not two LSS) is decided by [`Ssv::distance`]
-    /// itself: the result is exactly `distance <= margin`.
+    /// segment-segment kernel run lane-wise on the packed lines. It agrees with the scalar kernel
+    /// up to rounding, so a pair within a rounding band of the margin (and any pair that is not
+    /// two LSS) is decided by [`Ssv::distance`] itself: the result is exactly
+    /// `distance <= margin`.
     #[inline(always)]
     #[allow(unsafe_code)]
     fn exact_lanes<const AVX: bool>(&self, block: &[[u32; 2]], margin: Real) -> u32 {

@@ -266,8 +266,9 @@ impl Bvh {
     }
 
     /// [`Bvh::closest`] for a point (core `p`, radius `radius`): the same search over the
-    /// nodes' boxes alone, nearer child first. Boxes are looser than the nodes' RSS for curved
-    /// patches but cost six comparisons, and they sit in a third of the memory.
+    /// nodes' boxes alone, nearer child first, and in a leaf each triangle's own box before the
+    /// exact test. Boxes are looser than the nodes' RSS for curved patches but cost six
+    /// comparisons, and they sit in a third of the memory.
     fn closest_to_point(&self, p: &Point, radius: Real) -> Option<MeshClosest> {
         let q = [p.x, p.y, p.z];
         let corners_d2 = |lo: [Real; 3], hi: [Real; 3]| {

@@ -108,7 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .zip(one_thread.iter().zip(&all_threads))
         .map(|(b, (&one_thread, &all_threads))| {
             (
-                b.label(),
+                label(b.settings.integrator, b.settings.solver),
                 Throughput {
                     one_thread,
                     all_threads,
@@ -131,7 +131,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ratio = ia.zip(ee).map(|(a, e)| (e.0 / a.0, e.1 / a.1));
     // How many times faster the structured solve makes the coupled step than the dense LU.
     let speedup = rate(Integrator::ImplicitCoupled.name())
-        .zip(rate(&dense_label()))
+        .zip(rate(&label(
+            Integrator::ImplicitCoupled,
+            LinearSolver::Hand,
+        )))
         .map(|(s, d)| (s.0 / d.0, s.1 / d.1));
 
     if args.json {
@@ -261,29 +264,16 @@ struct Bench {
     non_finite_steps: usize,
 }
 
-/// The name of the coupled step by the dense LU.
-fn dense_label() -> String {
-    format!(
-        "{}_{}",
-        Integrator::ImplicitCoupled.name(),
-        LinearSolver::Hand.name()
-    )
+/// An integrator's name, with the solver's where it is not the default.
+fn label(integrator: Integrator, solver: LinearSolver) -> String {
+    if solver == LinearSolver::default() {
+        integrator.name().to_string()
+    } else {
+        format!("{}_{}", integrator.name(), solver.name())
+    }
 }
 
 impl Bench {
-    /// The integrator's name, with the solver's where it is not the default.
-    fn label(&self) -> String {
-        if self.settings.solver == LinearSolver::default() {
-            self.settings.integrator.name().to_string()
-        } else {
-            format!(
-                "{}_{}",
-                self.settings.integrator.name(),
-                self.settings.solver.name()
-            )
-        }
-    }
-
     fn step(&mut self, env: &Environment) -> anyhow::Result<()> {
         match self.state.step(env, &self.settings) {
             Ok(_) => Ok(()),

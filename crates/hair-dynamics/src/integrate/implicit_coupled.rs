@@ -114,10 +114,7 @@ fn dense_system<T: RealField + Copy>(
     let m2 = w.len();
     let h2 = h * h;
     strand::jacobian_of_load(m2, model, sc);
-    // A = diag(I + h g + h^2 k) - h^2 J ; b = h tau + h^2 (J w - k w)
     for l in 0..m2 {
-        let i = l / 2 + 1;
-        let k = spring_of(root, p, i, l);
         let row = l * m2;
         let mut jw = T::zero();
         for c in 0..m2 {
@@ -125,9 +122,32 @@ fn dense_system<T: RealField + Copy>(
             jw += j * w[c];
             sc.lu[row + c] = -h2 * j;
         }
-        sc.lu[row + l] += sc.inertia[l] + h * p.damping[i] + h2 * k;
-        sc.rhs[l] = h * sc.tau[l] + h2 * (jw - k * w[l]);
+        let (d, b) = diagonal_and_rhs(root, p, sc, w, h, l, jw);
+        sc.lu[row + l] += d;
+        sc.rhs[l] = b;
     }
+}
+
+/// Row `l` of the coupled system `diag(D) - h^2 J`, `b`, apart from `J`: the diagonal
+/// `D_l = I_l + h g + h^2 k` and the right-hand side `b_l = h tau_l + h^2 ((J w)_l - k w_l)`,
+/// given `(J w)_l`.
+#[inline]
+fn diagonal_and_rhs<T: RealField + Copy>(
+    root: &RootDyn<T>,
+    p: &StrandParams<'_, T>,
+    sc: &Scratch<T>,
+    w: &[T],
+    h: T,
+    l: usize,
+    jw: T,
+) -> (T, T) {
+    let i = l / 2 + 1;
+    let k = spring_of(root, p, i, l);
+    let h2 = h * h;
+    (
+        sc.inertia[l] + h * p.damping[i] + h2 * k,
+        h * sc.tau[l] + h2 * (jw - k * w[l]),
+    )
 }
 
 /// The axes of joint `j` (0-based) as the columns of a 3 x 2 matrix.
@@ -193,10 +213,7 @@ fn structured_solve<T: RealField + Copy>(
         let mut d = Vector2::zeros();
         let mut b = Vector2::zeros();
         for t in 0..2 {
-            let l = 2 * j + t;
-            let k = spring_of(root, p, node, l);
-            d[t] = sc.inertia[l] + h * p.damping[node] + h2 * k;
-            b[t] = h * sc.tau[l] + h2 * (jw[t] - k * wj[t]);
+            (d[t], b[t]) = diagonal_and_rhs(root, p, sc, w, h, 2 * j + t, jw[t]);
         }
         // suf_j = G x_j + M pre_j + r with G = M A_j + V_j.
         let g = gain_m * a + v;
