@@ -29,6 +29,13 @@ fn bvh(c: &mut Criterion) {
             Ssv::Point(Pss::new(rng.surface_point(bvh.triangles(), off).0, 0.0))
         })
         .collect();
+    // The band a body's distance field samples: 0 to 40 mm off the surface.
+    let band: Vec<Ssv> = (0..512)
+        .map(|_| {
+            let off = rng.range(0.0, 0.04);
+            Ssv::Point(Pss::new(rng.surface_point(bvh.triangles(), off).0, 0.0))
+        })
+        .collect();
     let body = head_and_shoulders_body(&bvh, 64).expect("maps");
 
     let mut g = c.benchmark_group("bvh");
@@ -55,6 +62,13 @@ fn bvh(c: &mut Criterion) {
     g.bench_function("point_closest", |b| {
         b.iter(|| {
             for s in black_box(&pts) {
+                black_box(bvh.closest(s));
+            }
+        })
+    });
+    g.bench_function("point_closest_band", |b| {
+        b.iter(|| {
+            for s in black_box(&band) {
                 black_box(bvh.closest(s));
             }
         })

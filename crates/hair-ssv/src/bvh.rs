@@ -7,7 +7,7 @@ use crate::fit::fit_rss_iter;
 use crate::query::rectangle_rectangle::rectangle_rectangle_lower_bound;
 use crate::query::segment_rectangle::segment_rectangle_lower_bound;
 use crate::query::separation::{rect_support, rect_support_min};
-use crate::query::{Closest, point_rectangle, point_triangle};
+use crate::query::{Closest, TriLanes, point_rectangle, point_triangle_lanes};
 use crate::{Contact, Point, Real, Rss, Ssv, SsvError, Vector};
 
 /// Triangles per leaf.
@@ -29,15 +29,99 @@ pub(crate) struct Node {
     pub(crate) count: u32,
 }
 
-/// A node's axis-aligned box and children (see [`Node`]), for point queries.
+/// Children per node of the point-query tree.
+const WIDE: usize = 4;
+
+/// A node of the point-query tree: the boxes of up to four children side by side (lane `k` of
+/// each array is child `k`), so that one pass of four-lane arithmetic measures how far the point
+/// is from all of them. Unused lanes hold an empty box (`lo = +inf`, `hi = -inf`), which is
+/// infinitely far. The tree is the RSS hierarchy with levels collapsed: each inner node takes the
+/// largest of its descendants until it has four children, and a leaf's children are its
+/// triangles, with their own boxes.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-struct BoxNode {
-    lo: [Real; 3],
-    first: u32,
-    hi: [Real; 3],
-    count: u32,
+#[repr(C, align(64))]
+struct WideNode {
+    lo: [[Real; WIDE]; 3],
+    hi: [[Real; WIDE]; 3],
+    /// Inner node: the children's node indices. Leaf: the triangles' indices in leaf order.
+    child: [u32; WIDE],
+    /// Leaf: its triangles' vertices, lane by lane, in `Bvh::leaf_tris`.
+    lanes: u32,
+    leaf: bool,
 }
+
+impl WideNode {
+    const EMPTY: Self = Self {
+        lo: [[Real::INFINITY; WIDE]; 3],
+        hi: [[Real::NEG_INFINITY; WIDE]; 3],
+        child: [0; WIDE],
+        lanes: 0,
+        leaf: false,
+    };
+
+    fn set_lane(&mut self, k: usize, lo: &Point, hi: &Point, child: u32) {
+        for a in 0..3 {
+            self.lo[a][k] = lo[a];
+            self.hi[a][k] = hi[a];
+        }
+        self.child[k] = child;
+    }
+}
+
+/// Appends the point-query node for the RSS node `n` (and, first, its subtree's) to `out` and
+/// returns its index.
+fn collapse(
+    nodes: &[Node],
+    tris: &[[Point; 3]],
+    tri_bounds: &[(Point, Point)],
+    n: usize,
+    out: &mut Vec<WideNode>,
+    leaf_tris: &mut Vec<TriLanes>,
+) -> u32 {
+    let me = out.len();
+    out.push(WideNode::EMPTY);
+    let node = &nodes[n];
+    if node.count > 0 {
+        // LEAF_SIZE <= WIDE: a leaf's triangles fit its lanes.
+        let range = node.first as usize..(node.first + node.count) as usize;
+        let mut wide = WideNode {
+            leaf: true,
+            lanes: leaf_tris.len() as u32,
+            ..WideNode::EMPTY
+        };
+        leaf_tris.push(TriLanes::new(&tris[range]));
+        for (k, t) in (node.first..node.first + node.count).enumerate() {
+            let (lo, hi) = &tri_bounds[t as usize];
+            wide.set_lane(k, lo, hi, t);
+        }
+        out[me] = wide;
+        return me as u32;
+    }
+    // Open the largest inner member (by box half-area) until there are four.
+    let half_area = |i: usize| {
+        let e = nodes[i].hi - nodes[i].lo;
+        e.x * e.y + e.y * e.z + e.z * e.x
+    };
+    let mut members = vec![n + 1, node.first as usize];
+    while members.len() < WIDE {
+        let open = (0..members.len())
+            .filter(|&k| nodes[members[k]].count == 0)
+            .max_by(|&a, &b| half_area(members[a]).total_cmp(&half_area(members[b])));
+        let Some(k) = open else { break };
+        let m = members[k];
+        members[k] = m + 1;
+        members.push(nodes[m].first as usize);
+    }
+    let mut wide = WideNode::EMPTY;
+    for (k, &m) in members.iter().enumerate() {
+        let child = collapse(nodes, tris, tri_bounds, m, out, leaf_tris);
+        wide.set_lane(k, &nodes[m].lo, &nodes[m].hi, child);
+    }
+    out[me] = wide;
+    me as u32
+}
+
+const _: () = assert!(LEAF_SIZE <= WIDE);
 
 /// The triangle of a mesh closest to a volume.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,9 +167,10 @@ impl ContactBatch {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     pub(crate) nodes: Vec<Node>,
-    /// The nodes' boxes and children alone, in the same order: point queries read only these
-    /// (a third of a node's bytes).
-    boxes: Vec<BoxNode>,
+    /// The point-query tree ([`WideNode`]); the root is node 0.
+    wide: Vec<WideNode>,
+    /// The point-query tree's leaf triangles, four side by side.
+    leaf_tris: Vec<TriLanes>,
     /// Triangles in leaf order.
     pub(crate) tris: Vec<[Point; 3]>,
     /// Per triangle in leaf order: axis-aligned bounds.
@@ -158,7 +243,7 @@ impl Bvh {
         let mut nodes = Vec::with_capacity(2 * input.len() / LEAF_SIZE + 1);
         build(&input, &centroids, &mut order, 0, &mut nodes);
         let tris: Vec<[Point; 3]> = order.iter().map(|&i| input[i as usize]).collect();
-        let tri_bounds = tris.iter().map(tri_bounds).collect();
+        let tri_bounds: Vec<(Point, Point)> = tris.iter().map(tri_bounds).collect();
         let tri_normals = tris
             .iter()
             .map(|t| {
@@ -168,18 +253,13 @@ impl Bvh {
                     .unwrap_or_else(Vector::z)
             })
             .collect();
-        let boxes = nodes
-            .iter()
-            .map(|n| BoxNode {
-                lo: [n.lo.x, n.lo.y, n.lo.z],
-                first: n.first,
-                hi: [n.hi.x, n.hi.y, n.hi.z],
-                count: n.count,
-            })
-            .collect();
+        let mut wide = Vec::with_capacity(nodes.len() / 2 + 1);
+        let mut leaf_tris = Vec::with_capacity(nodes.len() / 2 + 1);
+        collapse(&nodes, &tris, &tri_bounds, 0, &mut wide, &mut leaf_tris);
         Ok(Self {
             nodes,
-            boxes,
+            wide,
+            leaf_tris,
             tris,
             tri_bounds,
             tri_normals,
@@ -265,23 +345,35 @@ impl Bvh {
         })
     }
 
-    /// [`Bvh::closest`] for a point (core `p`, radius `radius`): the same search over the
-    /// nodes' boxes alone, nearer child first, and in a leaf each triangle's own box before the
-    /// exact test. Boxes are looser than the nodes' RSS for curved patches but cost six
-    /// comparisons, and they sit in a third of the memory.
+    /// [`Bvh::closest`] for a point (core `p`, radius `radius`): the same search over boxes
+    /// alone, four children at a time ([`WideNode`]), nearer children first, and in a leaf each
+    /// triangle's own box before the exact test. Boxes are looser than the nodes' RSS for curved
+    /// patches but cost six comparisons. The answer does not depend on the order of the search:
+    /// it is the least squared distance, the lowest input index among equals, and no triangle
+    /// that could be either is pruned (see [`BOX_ROUNDING`]).
     fn closest_to_point(&self, p: &Point, radius: Real) -> Option<MeshClosest> {
         let q = [p.x, p.y, p.z];
-        let corners_d2 = |lo: [Real; 3], hi: [Real; 3]| {
-            let mut d2 = 0.0;
-            for k in 0..3 {
-                let e = (lo[k] - q[k]).max(q[k] - hi[k]).max(0.0);
-                d2 += e * e;
+        // Squared distances from `q` to the four boxes of a node, lane by lane (plain
+        // comparisons rather than `max`, so that the lanes compile to packed instructions; the
+        // values are the same for any point that is not NaN).
+        let lanes_d2 = |w: &WideNode| {
+            let mut d2 = [0.0 as Real; WIDE];
+            for a in 0..3 {
+                for k in 0..WIDE {
+                    let below = w.lo[a][k] - q[a];
+                    let above = q[a] - w.hi[a][k];
+                    let e = if below > above { below } else { above };
+                    let e = if e > 0.0 { e } else { 0.0 };
+                    d2[k] += e * e;
+                }
             }
             // A relative margin keeps rounding in the box distance from pruning a triangle
             // exactly as far as the best.
-            d2 * BOX_ROUNDING
+            d2.map(|d| d * BOX_ROUNDING)
         };
-        let box_d2 = |b: &BoxNode| corners_d2(b.lo, b.hi);
+        if q.iter().any(|x| x.is_nan()) {
+            return self.closest_brute(&Ssv::Point(crate::Pss::new(*p, radius)));
+        }
         let mut best: Option<(u32, Closest)> = None;
         let mut best_d2 = Real::INFINITY;
         let mut stack = [(0u32, 0.0 as Real); 128];
@@ -292,34 +384,59 @@ impl Bvh {
             if bound >= best_d2 {
                 continue;
             }
-            let node = &self.boxes[index as usize];
-            if node.count > 0 {
-                for k in node.first as usize..(node.first + node.count) as usize {
-                    // Each triangle's own box first: a point a few centimetres off the surface
-                    // has dozens of leaves within reach, and the box rejects about 40 % of
-                    // their triangles for a fraction of the exact test's cost.
-                    let (lo, hi) = &self.tri_bounds[k];
-                    if corners_d2([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]) >= best_d2 {
-                        continue;
+            let node = &self.wide[index as usize];
+            let d2 = lanes_d2(node);
+            if node.leaf {
+                // Each triangle's own box first: a point a few centimetres off the surface has
+                // dozens of leaves within reach, and the boxes reject about 40 % of their
+                // triangles. The exact test runs on the four lanes at once.
+                if !d2.iter().any(|&d| d < best_d2) {
+                    continue;
+                }
+                let (on_b, dist_sq) = point_triangle_lanes(p, &self.leaf_tris[node.lanes as usize]);
+                for k in 0..WIDE {
+                    if d2[k] < best_d2 {
+                        let id = self.tri_ids[node.child[k] as usize];
+                        if dist_sq[k] < best_d2
+                            || (dist_sq[k] == best_d2 && best.is_some_and(|(b, _)| id < b))
+                        {
+                            best_d2 = dist_sq[k];
+                            let on_b = Point::new(on_b[0][k], on_b[1][k], on_b[2][k]);
+                            best = Some((
+                                id,
+                                Closest {
+                                    on_a: *p,
+                                    on_b,
+                                    dist_sq: dist_sq[k],
+                                },
+                            ));
+                        }
                     }
-                    self.scan_leaf(k..k + 1, |t| point_triangle(p, t), &mut best, &mut best_d2);
                 }
-            } else {
-                let (left, right) = (index + 1, node.first);
-                let dl = box_d2(&self.boxes[left as usize]);
-                let dr = box_d2(&self.boxes[right as usize]);
-                // The farther pushed first, so the nearer is visited first.
-                let (far, near) = if dl <= dr {
-                    ((right, dr), (left, dl))
-                } else {
-                    ((left, dl), (right, dr))
-                };
-                if sp + 2 > stack.len() {
-                    return self.closest_brute(&Ssv::Point(crate::Pss::new(*p, radius)));
+                continue;
+            }
+            // The children within reach, pushed farthest first so that the nearest is visited
+            // first.
+            // (A five-comparison sorting network, farthest first; ties keep either order.)
+            let mut order = [
+                (d2[0], node.child[0]),
+                (d2[1], node.child[1]),
+                (d2[2], node.child[2]),
+                (d2[3], node.child[3]),
+            ];
+            for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                if order[i].0 < order[j].0 {
+                    order.swap(i, j);
                 }
-                stack[sp] = far;
-                stack[sp + 1] = near;
-                sp += 2;
+            }
+            if sp + WIDE > stack.len() {
+                return self.closest_brute(&Ssv::Point(crate::Pss::new(*p, radius)));
+            }
+            for (d, child) in order {
+                if d < best_d2 {
+                    stack[sp] = (child, d);
+                    sp += 1;
+                }
             }
         }
         best.map(|(triangle, closest)| MeshClosest {

@@ -8,7 +8,7 @@
 //! | `distance_*`, [`distance_lss_lss_batch`] | the pairwise distances as free functions; eight-lane batched LSS pairs |
 //! | [`query`] | exact closest-point kernels: point, segment, rectangle, triangle |
 //! | [`fit_lss`], [`fit_rss`], [`fit_rss_triangles`] | tight volumes around point and triangle sets |
-//! | [`Bvh`] | RSS hierarchy over a triangle mesh (points search its boxes alone): closest triangle, contacts within a margin, rayon batches, ray casts |
+//! | [`Bvh`] | RSS hierarchy over a triangle mesh (points search a four-wide tree of its boxes, with four triangles per exact test): closest triangle, contacts within a margin, rayon batches, ray casts |
 //! | [`CylinderMap`], [`SphereMap`], [`Body`] | Kurihara's collision tables: bilinear lookup, inside test, nearest surface point |
 //! | [`SsvError`] | the one error type |
 //!
