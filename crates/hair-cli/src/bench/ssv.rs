@@ -1,5 +1,6 @@
-//! `hair bench ssv`: the swept-sphere-volume kernels, LSS-mesh contacts and the collision tables
-//! of `hair-ssv`, each measured beside parry3d in the same run, single-threaded.
+//! `hair bench ssv`: the swept-sphere-volume kernels, LSS-mesh contacts, point-mesh distances
+//! and the collision tables of `hair-ssv`, each measured beside parry3d in the same run,
+//! single-threaded.
 //!
 //! Errors are measured against f64 references (parry3d-f64 on the cores, whose distances are
 //! exact projections or converge far below the f32 answers), so `max_abs_err` is the error of
@@ -449,6 +450,72 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
 
+/// Points 0 to 40 mm off the surface (the band a body's distance field samples): our point
+/// query ([`Bvh::closest`] with a PSS) against parry3d's `TriMesh` point projection, both in f32;
+/// errors against parry3d-f64's projection onto the same mesh.
+fn bench_pss_mesh(
+    args: &Args,
+    rng: &mut SplitMix,
+    bvh: &Bvh,
+    mesh: &parry3d::shape::TriMesh,
+    vertices: &[Point],
+    triangles: &[[u32; 3]],
+) -> anyhow::Result<Entry> {
+    use parry3d::query::PointQuery;
+    let pts: Vec<Point> = (0..4096)
+        .map(|_| {
+            let off = rng.range(0.0, 0.04);
+            rng.surface_point(bvh.triangles(), off).0
+        })
+        .collect();
+    let pss: Vec<Ssv> = pts.iter().map(|p| Ssv::Point(Pss::new(*p, 0.0))).collect();
+    let peer_pts: Vec<parry3d::math::Vec3> = pts.iter().map(v32).collect();
+    let (ours, peer) = measure(
+        pss.len(),
+        peer_pts.len(),
+        args.seconds,
+        || {
+            let mut s = 0.0;
+            for q in black_box(&pss) {
+                s += bvh.closest(q).map_or(0.0, |m| m.distance);
+            }
+            black_box(s);
+        },
+        || {
+            let mut s = 0.0;
+            for p in black_box(&peer_pts) {
+                s += mesh.distance_to_local_point(*p, false);
+            }
+            black_box(s);
+        },
+    );
+    let mesh64 =
+        parry3d_f64::shape::TriMesh::new(vertices.iter().map(v64).collect(), triangles.to_vec())
+            .map_err(|e| anyhow::anyhow!("parry TriMesh (f64): {e:?}"))?;
+    let (mut err, mut peer_err) = (0.0f64, 0.0f64);
+    for ((p, q), pp) in pts.iter().zip(&pss).zip(&peer_pts) {
+        let exact = parry3d_f64::query::PointQuery::distance_to_local_point(&mesh64, v64(p), false);
+        let m = bvh
+            .closest(q)
+            .ok_or_else(|| anyhow::anyhow!("empty mesh"))?;
+        err = err.max((f64::from(m.distance) - exact).abs());
+        peer_err =
+            peer_err.max((f64::from(mesh.distance_to_local_point(*pp, false)) - exact).abs());
+    }
+    let mut extra = serde_json::Map::new();
+    extra.insert("triangles".into(), bvh.triangle_count().into());
+    extra.insert("queries".into(), pts.len().into());
+    extra.insert("offset_mm".into(), serde_json::json!([0.0, 40.0]));
+    Ok(Entry {
+        ours_per_s: ours,
+        peer_per_s: peer,
+        ratio: ours / peer,
+        max_abs_err: err,
+        peer_max_abs_err: peer_err,
+        extra,
+    })
+}
+
 fn bench_cylinder_map(args: &Args, rng: &mut SplitMix, bvh: &Bvh) -> anyhow::Result<Entry> {
     let t0 = Instant::now();
     let body = head_and_shoulders_body(bvh, args.map_samples)?;
@@ -564,12 +631,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let lss_lss = bench_lss_lss(&args, &mut rng)?;
     let rss_rss = bench_rss_rss(&args, &mut rng)?;
     let lss_mesh = bench_lss_mesh(&args, &mut rng, &bvh, &mesh)?;
+    let pss_mesh = bench_pss_mesh(&args, &mut rng, &bvh, &mesh, &vertices, &triangles)?;
     let cylinder_map = bench_cylinder_map(&args, &mut rng, &bvh)?;
 
     let report = serde_json::json!({
         "lss_lss": lss_lss,
         "rss_rss": rss_rss,
         "lss_mesh": lss_mesh,
+        "pss_mesh": pss_mesh,
         "cylinder_map": cylinder_map,
         "bvh_build_ms": bvh_build_ms,
         "peer_trimesh_build_ms": peer_build_ms,
