@@ -44,6 +44,26 @@ struct Entry {
     extra: serde_json::Map<String, serde_json::Value>,
 }
 
+impl Entry {
+    /// Our rate beside the peer's, their ratio, both errors and the row's own fields.
+    fn new(
+        ours: f64,
+        peer: f64,
+        err: f64,
+        peer_err: f64,
+        extra: serde_json::Map<String, serde_json::Value>,
+    ) -> Self {
+        Self {
+            ours_per_s: ours,
+            peer_per_s: peer,
+            ratio: ours / peer,
+            max_abs_err: err,
+            peer_max_abs_err: peer_err,
+            extra,
+        }
+    }
+}
+
 /// Queries per second of `f` (which runs `n` queries per call), best of alternating rounds.
 fn rate(n: usize, seconds: f64, mut f: impl FnMut()) -> f64 {
     let start = Instant::now();
@@ -235,14 +255,7 @@ fn bench_lss_lss(args: &Args, rng: &mut SplitMix) -> anyhow::Result<Entry> {
     let mut extra = serde_json::Map::new();
     extra.insert("ours_scalar_per_s".into(), scalar.into());
     extra.insert("scalar_ratio".into(), (scalar / peer).into());
-    Ok(Entry {
-        ours_per_s: ours,
-        peer_per_s: peer,
-        ratio: ours / peer,
-        max_abs_err: err,
-        peer_max_abs_err: peer_err,
-        extra,
-    })
+    Ok(Entry::new(ours, peer, err, peer_err, extra))
 }
 
 fn bench_rss_rss(args: &Args, rng: &mut SplitMix) -> anyhow::Result<Entry> {
@@ -295,14 +308,7 @@ fn bench_rss_rss(args: &Args, rng: &mut SplitMix) -> anyhow::Result<Entry> {
         let theirs = parry3d::query::distance(pa, sa, pb, sb)?.distance as f64;
         peer_err = peer_err.max((theirs - exact.max(0.0)).abs());
     }
-    Ok(Entry {
-        ours_per_s: ours,
-        peer_per_s: peer,
-        ratio: ours / peer,
-        max_abs_err: err,
-        peer_max_abs_err: peer_err,
-        extra: Default::default(),
-    })
+    Ok(Entry::new(ours, peer, err, peer_err, Default::default()))
 }
 
 /// Hair segments near the scalp: a surface point moved by -3..+6 mm along the normal, 1-2 cm
@@ -433,14 +439,7 @@ fn bench_lss_mesh(
     extra.insert("peer_contacts".into(), peer_contacts_n.into());
     extra.insert("mismatched".into(), mismatched.into());
     extra.insert("boundary_differences".into(), boundary.into());
-    Ok(Entry {
-        ours_per_s: ours,
-        peer_per_s: peer,
-        ratio: ours / peer,
-        max_abs_err: err,
-        peer_max_abs_err: peer_err,
-        extra,
-    })
+    Ok(Entry::new(ours, peer, err, peer_err, extra))
 }
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
@@ -448,6 +447,13 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
         return 0.0;
     }
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+/// The sum of the exact distances from `pss` to the mesh: one pass of our point query.
+fn exact_distance_sum(bvh: &Bvh, pss: &[Ssv]) -> Real {
+    pss.iter()
+        .map(|q| bvh.closest(q).map_or(0.0, |m| m.distance))
+        .sum()
 }
 
 /// Points 0 to 40 mm off the surface (the band a body's distance field samples): our point
@@ -475,11 +481,7 @@ fn bench_pss_mesh(
         peer_pts.len(),
         args.seconds,
         || {
-            let mut s = 0.0;
-            for q in black_box(&pss) {
-                s += bvh.closest(q).map_or(0.0, |m| m.distance);
-            }
-            black_box(s);
+            black_box(exact_distance_sum(bvh, black_box(&pss)));
         },
         || {
             let mut s = 0.0;
@@ -506,14 +508,7 @@ fn bench_pss_mesh(
     extra.insert("triangles".into(), bvh.triangle_count().into());
     extra.insert("queries".into(), pts.len().into());
     extra.insert("offset_mm".into(), serde_json::json!([0.0, 40.0]));
-    Ok(Entry {
-        ours_per_s: ours,
-        peer_per_s: peer,
-        ratio: ours / peer,
-        max_abs_err: err,
-        peer_max_abs_err: peer_err,
-        extra,
-    })
+    Ok(Entry::new(ours, peer, err, peer_err, extra))
 }
 
 fn bench_cylinder_map(args: &Args, rng: &mut SplitMix, bvh: &Bvh) -> anyhow::Result<Entry> {
@@ -543,11 +538,7 @@ fn bench_cylinder_map(args: &Args, rng: &mut SplitMix, bvh: &Bvh) -> anyhow::Res
             black_box(s);
         },
         || {
-            let mut s = 0.0;
-            for q in black_box(&pss) {
-                s += bvh.closest(q).map_or(0.0, |m| m.distance);
-            }
-            black_box(s);
+            black_box(exact_distance_sum(bvh, black_box(&pss)));
         },
     );
     // the map's signed distance against the exact one (sign from the closest face's normal)
@@ -606,14 +597,7 @@ fn bench_cylinder_map(args: &Args, rng: &mut SplitMix, bvh: &Bvh) -> anyhow::Res
     }
     extra.insert("parts".into(), parts.into());
     let max = percentile(&errs, 1.0);
-    Ok(Entry {
-        ours_per_s: ours,
-        peer_per_s: peer,
-        ratio: ours / peer,
-        max_abs_err: max,
-        peer_max_abs_err: 0.0,
-        extra,
-    })
+    Ok(Entry::new(ours, peer, max, 0.0, extra))
 }
 
 /// Runs the suite.
