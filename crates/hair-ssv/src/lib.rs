@@ -6,7 +6,7 @@
 //! | [`Pss`], [`Lss`], [`Rss`], [`Ssv`] | point, line and rectangle swept spheres (`new`, `try_new`, `aabb`) |
 //! | [`Ssv::distance`], [`Ssv::closest_points`], [`Ssv::contact`] | signed distance, closest core points, contact between any two |
 //! | `distance_*`, [`distance_lss_lss_batch`] | the pairwise distances as free functions; eight-lane batched LSS pairs |
-//! | [`query`] | exact closest-point kernels: point, segment, rectangle, triangle; [`query::segment_segment4`], four segment pairs per call with the same bits |
+//! | [`query`] | exact closest-point kernels: point, segment, rectangle, triangle |
 //! | [`fit_lss`], [`fit_rss`], [`fit_rss_triangles`] | tight volumes around point and triangle sets |
 //! | [`Bvh`] | RSS hierarchy over a triangle mesh (points search a four-wide tree of its boxes, with four triangles per exact test): closest triangle, contacts within a margin, rayon batches, ray casts |
 //! | [`CylinderMap`], [`SphereMap`], [`Body`] | Kurihara's collision tables: bilinear lookup, inside test, nearest surface point |
