@@ -759,18 +759,27 @@ impl Simulation {
                     }
                 }));
             let sections = &self.contact_sections;
-            // Four pairs at a time: the crossing ones' closest points come from one four-lane
-            // kernel call (the scalar kernel's values, lane by lane).
-            self.pair_responses
-                .resize(self.pair_list.len(), PairResponse::None);
-            self.pair_responses
-                .par_chunks_mut(1024)
-                .zip(self.pair_list.par_chunks(1024))
-                .for_each(|(out, pairs)| {
-                    for (out, pairs) in out.chunks_mut(4).zip(pairs.chunks(4)) {
-                        respond_to_pairs(sections, pairs, cos_parallel, out);
+            self.pair_list
+                .par_iter()
+                .map(|&[a, b]| {
+                    let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
+                    if !(sa.segment && sb.segment && (sa.active || sb.active)) {
+                        return PairResponse::None;
                     }
-                });
+                    if sa.tangent.dot(&sb.tangent).abs() >= cos_parallel {
+                        return PairResponse::Share(sa.node, sb.node);
+                    }
+                    let c = hair_ssv::query::segment_segment(&sa.a, &sa.b, &sb.a, &sb.b);
+                    let d = c.on_b - c.on_a;
+                    let dist = d.norm();
+                    let overlap = sa.radius + sb.radius - dist;
+                    if overlap > 0.0 && dist > 1e-9 {
+                        PairResponse::Push(sa.node, sb.node, d * (0.5 * overlap / dist))
+                    } else {
+                        PairResponse::None
+                    }
+                })
+                .collect_into_vec(&mut self.pair_responses);
             self.corrections.clear();
             self.node_push
                 .resize(self.state.node_count(), Vector::zeros());
@@ -1201,62 +1210,6 @@ struct ContactSection {
     active: bool,
     /// Whether it is a segment (the only shape the response handles).
     segment: bool,
-}
-
-/// The responses of up to four hair-hair pairs (positions in the pair search's order) into
-/// `out`: none unless both are segments and either is active; near-parallel sections share
-/// their rates; crossing ones that overlap are pushed apart by half the overlap each.
-fn respond_to_pairs(
-    sections: &[ContactSection],
-    pairs: &[[u32; 2]],
-    cos_parallel: Real,
-    out: &mut [PairResponse],
-) {
-    let mut crossing = [false; 4];
-    for (l, &[a, b]) in pairs.iter().enumerate() {
-        let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
-        out[l] = if !(sa.segment && sb.segment && (sa.active || sb.active)) {
-            PairResponse::None
-        } else if sa.tangent.dot(&sb.tangent).abs() >= cos_parallel {
-            PairResponse::Share(sa.node, sb.node)
-        } else {
-            crossing[l] = true;
-            PairResponse::None
-        };
-    }
-    let Some(first) = crossing.iter().position(|&c| c) else {
-        return;
-    };
-    // Lanes past the crossing pairs repeat the first one.
-    let pair = |l: usize| {
-        let [a, b] = pairs[if crossing.get(l) == Some(&true) {
-            l
-        } else {
-            first
-        }];
-        (&sections[a as usize], &sections[b as usize])
-    };
-    let p = std::array::from_fn(|l| {
-        let (sa, _) = pair(l);
-        [sa.a, sa.b]
-    });
-    let q = std::array::from_fn(|l| {
-        let (_, sb) = pair(l);
-        [sb.a, sb.b]
-    });
-    let closest = hair_ssv::query::segment_segment4(&p, &q);
-    for (l, c) in closest.iter().enumerate().take(pairs.len()) {
-        if !crossing[l] {
-            continue;
-        }
-        let (sa, sb) = pair(l);
-        let d = c.on_b - c.on_a;
-        let dist = d.norm();
-        let overlap = sa.radius + sb.radius - dist;
-        if overlap > 0.0 && dist > 1e-9 {
-            out[l] = PairResponse::Push(sa.node, sb.node, d * (0.5 * overlap / dist));
-        }
-    }
 }
 
 /// What the narrow phase decides for one hair-hair pair.
