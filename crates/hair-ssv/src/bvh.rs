@@ -1,5 +1,11 @@
 //! A bounding volume hierarchy of RSS over a triangle mesh, built top-down, for the hair-object
 //! queries of Ward & Lin 2003 §5.4: the closest triangle to an SSV and every triangle in contact.
+//!
+//! Points (a body's signed distance, its distance field's samples) search a second tree made
+//! from the same one: its levels collapsed so that each node holds four children's boxes side by
+//! side and each leaf four triangles' vertices, measured four at a time. On 20,000 points 0 to
+//! 40 mm off the 53,000-triangle head (`examples/point_profile.rs`, callgrind), one query took
+//! 27,300 instructions on the binary tree of boxes and takes 16,600, with the same answers.
 
 use rayon::prelude::*;
 
