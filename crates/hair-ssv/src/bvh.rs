@@ -377,8 +377,9 @@ impl Bvh {
             // exactly as far as the best.
             d2.map(|d| d * BOX_ROUNDING)
         };
+        // A NaN coordinate is within reach of nothing (and an infinite one of no box below).
         if q.iter().any(|x| x.is_nan()) {
-            return self.closest_brute(&Ssv::Point(crate::Pss::new(*p, radius)));
+            return None;
         }
         let mut best: Option<(u32, Closest)> = None;
         let mut best_d2 = Real::INFINITY;

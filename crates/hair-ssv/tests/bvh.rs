@@ -204,3 +204,22 @@ fn bad_meshes_give_typed_errors() {
         SsvError::NonFiniteVertex { vertex: 2 }
     );
 }
+
+/// A point with a NaN or infinite coordinate has no closest triangle: the query answers `None`
+/// rather than a NaN distance.
+#[test]
+fn non_finite_points_have_no_closest_triangle() {
+    let (v, t) = hair_ssv::test_meshes::head_and_shoulders(24);
+    let bvh = Bvh::new(&v, &t).expect("valid mesh");
+    for bad in [Real::NAN, Real::INFINITY, Real::NEG_INFINITY] {
+        for axis in 0..3 {
+            let mut p = Point::new(0.01, 0.02, 0.03);
+            p[axis] = bad;
+            let s = Ssv::Point(hair_ssv::Pss::new(p, 0.0));
+            assert_eq!(bvh.closest(&s), None, "point {p:?}");
+        }
+    }
+    // A finite point still has one.
+    let s = Ssv::Point(hair_ssv::Pss::new(Point::new(0.01, 0.02, 0.03), 0.0));
+    assert!(bvh.closest(&s).is_some_and(|m| m.distance.is_finite()));
+}
