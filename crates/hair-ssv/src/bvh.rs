@@ -403,28 +403,24 @@ impl Bvh {
                 let (on_b, dist_sq) = point_triangle_lanes(p, &self.leaf_tris[node.lanes as usize]);
                 for k in 0..WIDE {
                     if d2[k] < best_d2 {
-                        let id = self.tri_ids[node.child[k] as usize];
-                        if dist_sq[k] < best_d2
-                            || (dist_sq[k] == best_d2 && best.is_some_and(|(b, _)| id < b))
-                        {
-                            best_d2 = dist_sq[k];
-                            let on_b = Point::new(on_b[0][k], on_b[1][k], on_b[2][k]);
-                            best = Some((
-                                id,
-                                Closest {
-                                    on_a: *p,
-                                    on_b,
-                                    dist_sq: dist_sq[k],
-                                },
-                            ));
-                        }
+                        let on_b = Point::new(on_b[0][k], on_b[1][k], on_b[2][k]);
+                        let c = Closest {
+                            on_a: *p,
+                            on_b,
+                            dist_sq: dist_sq[k],
+                        };
+                        offer(
+                            self.tri_ids[node.child[k] as usize],
+                            c,
+                            &mut best,
+                            &mut best_d2,
+                        );
                     }
                 }
                 continue;
             }
-            // The children within reach, pushed farthest first so that the nearest is visited
-            // first.
-            // (A five-comparison sorting network, farthest first; ties keep either order.)
+            // The children within reach, pushed farthest first (a five-comparison sorting
+            // network; ties keep either order) so that the nearest is visited first.
             let mut order = [
                 (d2[0], node.child[0]),
                 (d2[1], node.child[1]),
@@ -464,13 +460,7 @@ impl Bvh {
         best_d2: &mut Real,
     ) {
         for k in leaf {
-            let c = closest(&self.tris[k]);
-            let id = self.tri_ids[k];
-            if c.dist_sq < *best_d2 || (c.dist_sq == *best_d2 && best.is_some_and(|(b, _)| id < b))
-            {
-                *best_d2 = c.dist_sq;
-                *best = Some((id, c));
-            }
+            offer(self.tri_ids[k], closest(&self.tris[k]), best, best_d2);
         }
     }
 
@@ -600,6 +590,16 @@ impl Bvh {
             .with_min_len(64)
             .map(|s| self.closest(s))
             .collect()
+    }
+}
+
+/// Offers triangle `id` at `c` to the best so far: a nearer one, or one as near with a lower
+/// input index, replaces it (so the answer does not depend on the order of the offers).
+#[inline(always)]
+fn offer(id: u32, c: Closest, best: &mut Option<(u32, Closest)>, best_d2: &mut Real) {
+    if c.dist_sq < *best_d2 || (c.dist_sq == *best_d2 && best.is_some_and(|(b, _)| id < b)) {
+        *best_d2 = c.dist_sq;
+        *best = Some((id, c));
     }
 }
 
