@@ -1045,27 +1045,33 @@ impl Simulation {
             .sum()
     }
 
-    /// FNV-1a over the float bits of every angle, angular velocity and position.
+    /// A hash of the float bits of every angle, angular velocity and position: two chains of
+    /// 64-bit words (the angles and rates, two floats a word; the positions), each step an xor,
+    /// a multiplication by an odd constant and a rotation, then folded together. Every step is
+    /// invertible, so two states that differ in one float always differ in the hash. Word-wise
+    /// and in two independent chains, it takes about a sixth of the time of a byte-wise hash,
+    /// which was over one percent of a step.
     pub fn state_hash(&self) -> u64 {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |x: f32| {
-            for b in x.to_bits().to_le_bytes() {
-                h ^= u64::from(b);
-                h = h.wrapping_mul(0x0000_0100_0000_01b3);
-            }
-        };
-        let s = &self.state;
-        for i in 0..s.node_count() {
-            eat(s.theta()[i]);
-            eat(s.phi()[i]);
-            eat(s.omega_theta()[i]);
-            eat(s.omega_phi()[i]);
-            let p = s.positions()[i];
-            eat(p.x);
-            eat(p.y);
-            eat(p.z);
+        const K: u64 = 0x9e37_79b9_7f4a_7c15;
+        #[inline(always)]
+        fn mix(h: u64, w: u64) -> u64 {
+            (h ^ w).wrapping_mul(K).rotate_left(29)
         }
-        h
+        let pair = |a: f32, b: f32| u64::from(a.to_bits()) | u64::from(b.to_bits()) << 32;
+        let s = &self.state;
+        let (mut angles, mut points) = (0xcbf2_9ce4_8422_2325_u64, 0x8422_2325_cbf2_9ce4_u64);
+        let rows = s
+            .theta()
+            .iter()
+            .zip(s.phi())
+            .zip(s.omega_theta().iter().zip(s.omega_phi()))
+            .zip(s.positions());
+        for (((&t, &f), (&wt, &wf)), p) in rows {
+            angles = mix(mix(angles, pair(t, f)), pair(wt, wf));
+            points = mix(mix(points, pair(p.x, p.y)), u64::from(p.z.to_bits()));
+        }
+        let h = mix(mix(angles, points), s.node_count() as u64);
+        h ^ (h >> 31)
     }
 
     /// Rebuilds every rendered strand from its front node, in world coordinates.
@@ -1239,4 +1245,42 @@ fn ms(a: Instant, b: Instant) -> f64 {
 /// Hierarchy thresholds for a scene: the defaults, which are sized for a human head.
 fn hierarchy_params(scene: &Scene) -> HierarchyParams {
     scene.hierarchy.params()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One float's lowest bit flipped anywhere in the state (an angle or a rate of the first, a
+    /// middle or the last node) changes the hash; flipped back, the hash returns.
+    #[test]
+    fn the_state_hash_sees_every_float() {
+        let scene = Scene::load("bristles").expect("built-in scene");
+        let mut sim = Simulation::new(&scene, LodPolicy::Fine).expect("scene builds");
+        let base = sim.state_hash();
+        let n = sim.state.node_count();
+        let flip = |x: &mut f32| *x = f32::from_bits(x.to_bits() ^ 1);
+        for i in [0, n / 2, n - 1] {
+            for field in 0..4 {
+                let s = &mut sim.state;
+                let x: &mut f32 = match field {
+                    0 => &mut s.theta_mut()[i],
+                    1 => &mut s.phi_mut()[i],
+                    2 => &mut s.omega_theta_mut()[i],
+                    _ => &mut s.omega_phi_mut()[i],
+                };
+                flip(x);
+                assert_ne!(sim.state_hash(), base, "node {i}, field {field}");
+                let s = &mut sim.state;
+                let x: &mut f32 = match field {
+                    0 => &mut s.theta_mut()[i],
+                    1 => &mut s.phi_mut()[i],
+                    2 => &mut s.omega_theta_mut()[i],
+                    _ => &mut s.omega_phi_mut()[i],
+                };
+                flip(x);
+                assert_eq!(sim.state_hash(), base);
+            }
+        }
+    }
 }
