@@ -964,7 +964,7 @@ impl Grid {
                         };
                     }
                 });
-            self.rank_sections();
+            self.rank_sections(None);
             let pk = &mut self.packed;
             let rank = &pk.rank;
             let entries = self.entries;
@@ -1003,28 +1003,71 @@ impl Grid {
             });
     }
 
-    /// The pair search's order of the sections: by first cell (`packed.first`, a cell index,
-    /// `n_cells` for an empty cover), then by index; a sequential counting sort.
-    #[inline(never)]
-    fn rank_sections(&mut self) {
+    /// The pair search's order of the sections: by first cell (`packed.first`: a cell index,
+    /// `n_cells` for an empty cover; or, given `dense_cell`, a box index mapped through it,
+    /// `u32::MAX` for an empty cover), then by index. A stable counting sort, counted and ranked
+    /// in parallel over blocks of consecutive sections (any blocking gives the same ranks: within
+    /// a cell, block 0's sections come first, then block 1's), then the inverse permutation in
+    /// one sequential pass.
+    fn rank_sections(&mut self, dense_cell: Option<&[u32]>) {
         let n = self.len;
         let n_cells = self.cell_keys.len();
         let pk = &mut self.packed;
+        let blocks = rayon::current_num_threads().min(n >> 14).clamp(1, 8);
+        let per = n.div_ceil(blocks).max(1);
+        let blocks = n.div_ceil(per).max(1);
+        let width = n_cells + 1;
         pk.counts.clear();
-        pk.counts.resize(n_cells + 2, 0);
-        for &f in &pk.first[..n] {
-            pk.counts[f as usize + 1] += 1;
+        pk.counts.resize(blocks * width, 0);
+        pk.first[..n]
+            .par_chunks_mut(per)
+            .zip(pk.counts.par_chunks_mut(width))
+            .for_each(|(first, count)| {
+                if let Some(map) = dense_cell {
+                    for f in first.iter_mut() {
+                        *f = if *f == u32::MAX {
+                            n_cells as u32
+                        } else {
+                            map[*f as usize]
+                        };
+                    }
+                }
+                for &f in first.iter() {
+                    count[f as usize] += 1;
+                }
+            });
+        // Exclusive prefix, cell-major then block-minor: each block's count becomes its cursor.
+        let mut run = 0u32;
+        if blocks == 1 {
+            for c in pk.counts.iter_mut() {
+                let x = *c;
+                *c = run;
+                run += x;
+            }
+        } else {
+            for c in 0..width {
+                for b in 0..blocks {
+                    let x = pk.counts[b * width + c];
+                    pk.counts[b * width + c] = run;
+                    run += x;
+                }
+            }
         }
-        for c in 1..pk.counts.len() {
-            pk.counts[c] += pk.counts[c - 1];
-        }
-        pk.order.resize(n, 0);
         pk.rank.resize(n, 0);
-        for (i, &f) in pk.first[..n].iter().enumerate() {
-            let slot = &mut pk.counts[f as usize];
-            pk.order[*slot as usize] = i as u32;
-            pk.rank[i] = *slot;
-            *slot += 1;
+        pk.rank[..n]
+            .par_chunks_mut(per)
+            .zip(pk.first[..n].par_chunks(per))
+            .zip(pk.counts.par_chunks_mut(width))
+            .for_each(|((rank, first), cursor)| {
+                for (r, &f) in rank.iter_mut().zip(first) {
+                    let c = &mut cursor[f as usize];
+                    *r = *c;
+                    *c += 1;
+                }
+            });
+        pk.order.resize(n, 0);
+        for (i, &r) in pk.rank[..n].iter().enumerate() {
+            pk.order[r as usize] = i as u32;
         }
     }
 
@@ -1143,16 +1186,9 @@ impl Grid {
                 }
             }
             // The pair search's order, so that the copy below renumbers the entries.
-            let n_cells = self.cell_keys.len() as u32;
-            let dense_cell = &self.dense_cell;
-            for f in &mut self.packed.first[..n] {
-                *f = if *f == u32::MAX {
-                    n_cells
-                } else {
-                    dense_cell[*f as usize]
-                };
-            }
-            self.rank_sections();
+            let dense_cell = std::mem::take(&mut self.dense_cell);
+            self.rank_sections(Some(&dense_cell));
+            self.dense_cell = dense_cell;
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
             // stores, plain moves on common targets), then one copy.
             if self.scatter.len() < entries {

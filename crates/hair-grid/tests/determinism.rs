@@ -70,3 +70,37 @@ fn a_reused_grid_equals_a_fresh_one() {
         }
     }
 }
+
+/// A scene large enough that the sections are ranked in several blocks: the pair search's order
+/// is the same on 1, 2 and 3 threads and is the order by first cell, then by index.
+#[test]
+fn the_search_order_is_by_first_cell_then_index_on_any_thread_count() {
+    let secs = hair_grid::test_scenes::head_shell(60_000, 30, 3);
+    let order = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut grid = Grid::new(GridConfig::default());
+            grid.rebuild(&secs).unwrap();
+            let mut pairs = PairSet::new();
+            grid.overlapping_pairs(&mut pairs);
+            let keys: Vec<_> = grid.cells().map(|(k, _)| k).collect();
+            let mut expected: Vec<(usize, u32)> = (0..secs.len())
+                .map(|i| {
+                    let first = grid.section_cells(i).next().expect("a cover");
+                    let cell = keys.iter().position(|&k| k == first).expect("a cell");
+                    (cell, i as u32)
+                })
+                .collect();
+            expected.sort_unstable();
+            let expected: Vec<u32> = expected.into_iter().map(|(_, i)| i).collect();
+            assert_eq!(grid.search_order(), &expected[..], "{threads} threads");
+            (grid.search_order().to_vec(), pairs.to_vec())
+        })
+    };
+    let one = order(1);
+    assert_eq!(order(2), one);
+    assert_eq!(order(3), one);
+}
