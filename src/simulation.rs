@@ -1259,26 +1259,21 @@ mod tests {
         let mut sim = Simulation::new(&scene, LodPolicy::Fine).expect("scene builds");
         let base = sim.state_hash();
         let n = sim.state.node_count();
-        let flip = |x: &mut f32| *x = f32::from_bits(x.to_bits() ^ 1);
+        // Flips the lowest bit of one angle or rate of node `i`.
+        let flip = |s: &mut StrandState, field: usize, i: usize| {
+            let x = match field {
+                0 => &mut s.theta_mut()[i],
+                1 => &mut s.phi_mut()[i],
+                2 => &mut s.omega_theta_mut()[i],
+                _ => &mut s.omega_phi_mut()[i],
+            };
+            *x = f32::from_bits(x.to_bits() ^ 1);
+        };
         for i in [0, n / 2, n - 1] {
             for field in 0..4 {
-                let s = &mut sim.state;
-                let x: &mut f32 = match field {
-                    0 => &mut s.theta_mut()[i],
-                    1 => &mut s.phi_mut()[i],
-                    2 => &mut s.omega_theta_mut()[i],
-                    _ => &mut s.omega_phi_mut()[i],
-                };
-                flip(x);
+                flip(&mut sim.state, field, i);
                 assert_ne!(sim.state_hash(), base, "node {i}, field {field}");
-                let s = &mut sim.state;
-                let x: &mut f32 = match field {
-                    0 => &mut s.theta_mut()[i],
-                    1 => &mut s.phi_mut()[i],
-                    2 => &mut s.omega_theta_mut()[i],
-                    _ => &mut s.omega_phi_mut()[i],
-                };
-                flip(x);
+                flip(&mut sim.state, field, i);
                 assert_eq!(sim.state_hash(), base);
             }
         }
