@@ -371,7 +371,9 @@ pub struct CollisionSpec {
     pub parallel_angle: f32,
     /// The penetration tolerated after the hard constraint (m).
     pub tolerance: f32,
-    /// Steps over which hair that starts inside the body is pushed out.
+    /// Steps of the depenetration ramp: in them each pass of the hard constraint moves a node
+    /// `1 / (steps left)` of its depth (the passes compound, so a deep node comes out over
+    /// several passes, most of the way in the first step).
     pub depenetration_steps: u32,
 }
 

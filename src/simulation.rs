@@ -893,8 +893,11 @@ impl Simulation {
     /// front node closer to the body than its radius is moved out along the body's normal and
     /// loses its velocity into the body, with friction. The node stays on the sphere about the
     /// node before it, so a segment hanging straight into a surface swings out of it instead of
-    /// being re-aimed along itself. In the first `depenetration_steps` steps the push is spread
-    /// over the remaining steps, so hair that starts inside comes out gently. Passes repeat on
+    /// being re-aimed along itself. In the first `depenetration_steps` steps (the ramp) each pass
+    /// moves a node only `1 / (steps left)` of its depth, so that hair that starts deep inside
+    /// comes out over several passes instead of in one move; the passes compound, so that most of
+    /// the depth goes in the ramp's first step (every built-in scene is within 0.5 mm of the
+    /// surface after it), and only the last ramp step moves nodes all the way. Passes repeat on
     /// the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of the
     /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
     /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Passes from
