@@ -1052,8 +1052,8 @@ impl Simulation {
     /// 64-bit words (the angles and rates, two floats a word; the positions), each step an xor,
     /// a multiplication by an odd constant and a rotation, then folded together. Every step is
     /// invertible, so two states that differ in one float always differ in the hash. Word-wise
-    /// and in two independent chains, it takes about a sixth of the time of a byte-wise hash,
-    /// which was over one percent of a step.
+    /// and in two independent chains it is about nine times cheaper than the byte-wise FNV-1a it
+    /// replaced (perf over 60 `wardlin` frames: 1.88% of the samples, then 0.21%).
     pub fn state_hash(&self) -> u64 {
         const K: u64 = 0x9e37_79b9_7f4a_7c15;
         #[inline(always)]

@@ -964,7 +964,7 @@ impl Grid {
                         };
                     }
                 });
-            self.rank_sections(None);
+            Self::rank_sections(&mut self.packed, n, n_cells, None);
             let pk = &mut self.packed;
             let rank = &pk.rank;
             let entries = self.entries;
@@ -1009,10 +1009,7 @@ impl Grid {
     /// in parallel over blocks of consecutive sections (any blocking gives the same ranks: within
     /// a cell, block 0's sections come first, then block 1's), then the inverse permutation in
     /// one sequential pass.
-    fn rank_sections(&mut self, dense_cell: Option<&[u32]>) {
-        let n = self.len;
-        let n_cells = self.cell_keys.len();
-        let pk = &mut self.packed;
+    fn rank_sections(pk: &mut Packed, n: usize, n_cells: usize, dense_cell: Option<&[u32]>) {
         let blocks = rayon::current_num_threads().min(n >> 14).clamp(1, 8);
         let per = n.div_ceil(blocks).max(1);
         let blocks = n.div_ceil(per).max(1);
@@ -1038,19 +1035,11 @@ impl Grid {
             });
         // Exclusive prefix, cell-major then block-minor: each block's count becomes its cursor.
         let mut run = 0u32;
-        if blocks == 1 {
-            for c in pk.counts.iter_mut() {
-                let x = *c;
-                *c = run;
+        for c in 0..width {
+            for b in 0..blocks {
+                let x = pk.counts[b * width + c];
+                pk.counts[b * width + c] = run;
                 run += x;
-            }
-        } else {
-            for c in 0..width {
-                for b in 0..blocks {
-                    let x = pk.counts[b * width + c];
-                    pk.counts[b * width + c] = run;
-                    run += x;
-                }
             }
         }
         pk.rank.resize(n, 0);
@@ -1186,9 +1175,8 @@ impl Grid {
                 }
             }
             // The pair search's order, so that the copy below renumbers the entries.
-            let dense_cell = std::mem::take(&mut self.dense_cell);
-            self.rank_sections(Some(&dense_cell));
-            self.dense_cell = dense_cell;
+            let n_cells = self.cell_keys.len();
+            Self::rank_sections(&mut self.packed, n, n_cells, Some(&self.dense_cell));
             // Scatter: the blocks write disjoint positions of shared buffers (relaxed atomic
             // stores, plain moves on common targets), then one copy.
             if self.scatter.len() < entries {
