@@ -6,8 +6,10 @@
 //! front is integrated. Before selecting, the front's motion is read into a [`LodState`]
 //! (deviations from rest, so a coarse node and its children share one description); after the
 //! transitions, every node that became active gets its motion written back from it. Hair hidden
-//! from the camera (outside the view, or behind the head) asks for the coarsest level and, when a
-//! whole root strip is hidden, collapses to it.
+//! from the camera (outside the view, or behind the head) for [`HIDDEN_AFTER`] steps asks for the
+//! coarsest level and, when all of a tree's hair is hidden, the tree collapses to its root strip.
+//! Speeds are held against a decay ([`SPEED_HOLD`]) and merges need a margin
+//! ([`hair_lod::MERGE_MARGIN`]): hysteresis, so that the front does not flicker.
 
 use crate::HairError;
 use crate::scene::AdaptiveSpec;
@@ -75,8 +77,29 @@ pub struct AdaptiveLod {
     speed: Vec<Real>,
     activity: Vec<LodActivity>,
     was_active: Vec<bool>,
+    /// Per node: consecutive steps it has been active and out of sight.
+    unseen_for: Vec<u32>,
+    /// Per node: the speed it is judged by, its own held against a decay ([`SPEED_HOLD`]).
+    held_speed: Vec<Real>,
     last: TransitionReport,
 }
+
+/// Steps an active node must stay out of sight before it counts as hidden (asks for the
+/// coarsest level, and, with the rest of its tree, lets the tree collapse to its root strip).
+/// Hair at the edge of sight goes in and out of it from one step to the next, and a node and
+/// its parent are seen differently there (their points differ by up to the merge distance): on
+/// the `wardlin` scene, judging each step afresh merged about 60 nodes or collapsed about 60
+/// trees on one step and split or restored them on the next, every step, each time carrying the
+/// motion across levels (a visible pop, and the work of the transitions). Seen counts at once.
+pub const HIDDEN_AFTER: u32 = 15;
+
+/// Fraction of its held speed a node keeps per step when it moves slower (a half-life of about
+/// seven steps). Hair fluttering in gusty wind reaches a speed on one step and a third of it a
+/// few steps later: judged by the speed of the moment, nodes split when fast and merged as soon
+/// as they slowed (about 30 of each per step on the `zoom` scene), each time carrying the motion
+/// across levels. Judged by the held speed, hair gets detail as soon as it is fast and gives it
+/// up once it has been slow for a while.
+pub const SPEED_HOLD: Real = 0.9;
 
 impl AdaptiveLod {
     /// Starts at the coarsest front (every root strip).
@@ -106,6 +129,8 @@ impl AdaptiveLod {
             speed: vec![0.0; n],
             activity: vec![LodActivity::Moving; n],
             was_active,
+            unseen_for: vec![0; n],
+            held_speed: vec![0.0; n],
             last: TransitionReport::default(),
         })
     }
@@ -163,7 +188,10 @@ impl AdaptiveLod {
                 .fold(Real::INFINITY, Real::min);
             self.visible[n] = !self.cull_hidden || pts.iter().any(|p| view.sees(p));
             self.speed[n] = if self.front.is_active(n as u32) {
-                velocities[r].iter().map(|v| v.norm()).fold(0.0, Real::max)
+                let now = velocities[r].iter().map(|v| v.norm()).fold(0.0, Real::max);
+                let held = &mut self.held_speed[n];
+                *held = now.max(*held * SPEED_HOLD);
+                *held
             } else {
                 0.0
             };
@@ -172,6 +200,25 @@ impl AdaptiveLod {
             } else {
                 LodActivity::Moving
             };
+        }
+        if self.cull_hidden {
+            for n in 0..h.node_count() {
+                if self.front.is_active(n as u32) {
+                    let unseen = &mut self.unseen_for[n];
+                    *unseen = if self.visible[n] { 0 } else { *unseen + 1 };
+                    self.visible[n] = *unseen < HIDDEN_AFTER;
+                }
+            }
+            // An expanded tree is seen while any of its active nodes is (its root's own point,
+            // on the scalp, is often behind the head while the hair hanging from it is in view).
+            for t in 0..h.tree_count() as u32 {
+                let root = h.tree_root(t);
+                if !self.front.is_active(root) {
+                    self.visible[root as usize] = h
+                        .tree_nodes(t)
+                        .any(|n| self.front.is_active(n) && self.visible[n as usize]);
+                }
+            }
         }
         let inputs = NodeInputs {
             visible: &self.visible,
@@ -192,6 +239,31 @@ impl AdaptiveLod {
                     self.lod.write_motion(h, c, state, SkeletonId(c))?;
                 }
             }
+        }
+        // The nodes that became active start out seen, but for a merged parent, which is as
+        // unseen as the least unseen of its children, and a collapsed root strip, which is
+        // hidden until it is seen. A merged parent holds the highest speed its children held; a
+        // node split from its parent, or restored below it, the parent's.
+        for n in 0..h.node_count() as u32 {
+            let i = n as usize;
+            if !self.front.is_active(n) || self.was_active[i] {
+                continue;
+            }
+            let merged = h
+                .children(n)
+                .filter(|&c| self.was_active[c as usize])
+                .map(|c| (self.unseen_for[c as usize], self.held_speed[c as usize]))
+                .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)));
+            let (unseen, held) = match merged {
+                Some(m) => m,
+                None => (0, h.parent(n).map_or(0.0, |p| self.held_speed[p as usize])),
+            };
+            self.unseen_for[i] = if self.front.is_hidden(h.tree_of(n)) {
+                HIDDEN_AFTER
+            } else {
+                unseen
+            };
+            self.held_speed[i] = held;
         }
         let mut changed = false;
         for n in 0..h.node_count() {

@@ -125,6 +125,26 @@ fn adaptive_policy_is_deterministic_and_coarser_than_fine() {
     );
 }
 
+/// The adaptive front on `wardlin` holds still where nothing asks it to move. Judged afresh
+/// each step, trees whose hair sits at the edge of sight collapsed on one step and were restored
+/// on the next (about 700 transitions in these 10 steps); now hair must stay out of sight for
+/// `HIDDEN_AFTER` steps before it counts as hidden.
+#[test]
+fn adaptive_front_does_not_flicker_at_the_edge_of_sight() {
+    let scene = Scene::load("wardlin").unwrap();
+    let mut sim = Simulation::new(&scene, LodPolicy::Adaptive).unwrap();
+    let mut transitions = 0;
+    for _ in 0..10 {
+        let s = sim.step().unwrap();
+        transitions += s.lod_splits + s.lod_merges;
+    }
+    assert!(
+        transitions <= 20,
+        "{transitions} splits and merges in 10 steps (hidden after {} steps)",
+        hair::adaptive::HIDDEN_AFTER
+    );
+}
+
 #[test]
 fn teleport_moves_the_drawing_and_not_the_dynamics() {
     let scene = Scene::load("bristles").unwrap();

@@ -86,7 +86,9 @@ pub use error::LodError;
 pub use hairstyle::{Hairstyle, Strand};
 pub use hierarchy::{Hierarchy, HierarchyStats, LevelCount, NO_PARENT, NodeKind};
 pub use inherit::{add_bond, cut};
-pub use select::{Activity, Front, NodeInputs, Plan, SelectParams, rendered, select, select_into};
+pub use select::{
+    Activity, Front, MERGE_MARGIN, NodeInputs, Plan, SelectParams, rendered, select, select_into,
+};
 pub use state::{BondEnd, LodBond, LodState};
 pub use transition::{
     MergeCheck, MergeParams, TransitionReport, apply, merge, merge_check, split, try_merge,

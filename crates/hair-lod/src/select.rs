@@ -20,6 +20,13 @@ pub enum Activity {
     Tool,
 }
 
+/// Hysteresis of the selection, in levels: a node splits as soon as its inputs ask for a finer
+/// level, but votes to merge only when they ask for a level at least this much coarser than its
+/// own. Speeds in gusty wind cross a level's threshold up and down from one step to the next;
+/// without the band, nodes split on one step and merged on the next (about 30 of each per step on
+/// the `zoom` scene), each time carrying the motion across levels.
+pub const MERGE_MARGIN: Real = 0.5;
+
 /// Per-level intervals of distance and speed, given at the coarsest and finest levels and
 /// interpolated linearly in between (Ward & Lin §6.1). SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,6 +84,30 @@ impl SelectParams {
         speed: Real,
         activity: Activity,
     ) -> u8 {
+        self.level_with_margin(max_level, distance, speed, activity, 0.0)
+    }
+
+    /// The level a node votes to merge at: [`SelectParams::desired_level`] with the inputs'
+    /// level raised by [`MERGE_MARGIN`], so that a node asks to be coarser only when its
+    /// inputs are half a level below its own, not as soon as they dip below it.
+    pub fn merge_level(
+        &self,
+        max_level: u8,
+        distance: Real,
+        speed: Real,
+        activity: Activity,
+    ) -> u8 {
+        self.level_with_margin(max_level, distance, speed, activity, MERGE_MARGIN)
+    }
+
+    fn level_with_margin(
+        &self,
+        max_level: u8,
+        distance: Real,
+        speed: Real,
+        activity: Activity,
+        margin: Real,
+    ) -> u8 {
         if activity == Activity::Tool || max_level == 0 {
             return max_level;
         }
@@ -93,7 +124,7 @@ impl SelectParams {
             .clamp(0.0, 1.0);
         // NaN (never after validation) falls to the coarsest.
         let t = by_distance.max(by_speed);
-        let l = (t * m + 1e-4).floor();
+        let l = (t * m + 1e-4 + margin).floor();
         if l.is_nan() { 0 } else { l.clamp(0.0, m) as u8 }
     }
 }
@@ -262,8 +293,9 @@ pub fn select(
 /// - a tree visible again after that goes straight down to the level its inputs ask for;
 /// - otherwise each active node compares the level it asks for
 ///   ([`SelectParams::desired_level`]; an invisible node asks for level 0) with its own: finer
-///   splits it, coarser votes to merge, and a parent merges when all its children are active and
-///   vote so. Nothing moves more than one level.
+///   splits it; coarser by at least [`MERGE_MARGIN`] of a level ([`SelectParams::merge_level`])
+///   votes to merge, and a parent merges when all its children are active and vote so. Nothing
+///   moves more than one level.
 pub fn select_into(
     h: &Hierarchy,
     front: &Front,
@@ -282,6 +314,13 @@ pub fn select_into(
             return 0;
         }
         params.desired_level(max, inputs.distance[i], inputs.speed[i], inputs.activity[i])
+    };
+    let merge_vote = |n: u32| -> u8 {
+        let i = n as usize;
+        if !inputs.visible[i] {
+            return 0;
+        }
+        params.merge_level(max, inputs.distance[i], inputs.speed[i], inputs.activity[i])
     };
     for t in 0..h.tree_count() as u32 {
         let root = h.tree_root(t);
@@ -320,7 +359,7 @@ pub fn select_into(
                 if kids.start == n
                     && kids
                         .clone()
-                        .all(|c| front.active[c as usize] && desired(c) < h.level(c))
+                        .all(|c| front.active[c as usize] && merge_vote(c) < h.level(c))
                 {
                     plan.merges.push(p);
                 }

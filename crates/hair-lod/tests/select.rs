@@ -100,6 +100,46 @@ fn a_parent_merges_only_when_every_child_asks() {
     assert!(front.is_active(parent));
 }
 
+/// Hysteresis: children whose inputs ask for a level less than `MERGE_MARGIN` below their own
+/// do not merge (their parent would split again at once); half a level further they do. The
+/// split side has no band: a node splits as soon as its inputs ask for more.
+#[test]
+fn children_merge_only_when_clearly_below_their_level() {
+    let (_, h) = small_head(300, 2);
+    let front = Front::finest(&h);
+    let p = SelectParams::default();
+    let m = f32::from(h.max_level());
+    let parent = (0..h.node_count() as u32)
+        .find(|&v| h.children(v).len() >= 2 && h.children(v).all(|c| h.is_leaf(c)))
+        .unwrap();
+    let level = f32::from(h.level(h.children(parent).start));
+    // The distance at which the selection's level variable is `x` levels.
+    let at = |x: f32| p.distance_coarsest - (p.distance_coarsest - p.distance_finest) * x / m;
+    for (x, merges) in [(level - 0.3, false), (level - 0.7, true)] {
+        let mut inputs = Inputs::uniform(&h, true, 100.0, 0.0);
+        for c in h.children(parent) {
+            inputs.distance[c as usize] = at(x);
+        }
+        assert!(
+            p.desired_level(h.max_level(), at(x), 0.0, Activity::Moving)
+                < h.level(h.children(parent).start)
+        );
+        let plan = select(&h, &front, &inputs.view(), &p).unwrap();
+        assert_eq!(
+            plan.merges.contains(&parent),
+            merges,
+            "children at {x} levels"
+        );
+    }
+    // A node splits as soon as its inputs ask for the next level.
+    let coarse = Front::coarsest(&h);
+    let root = h.tree_root(0);
+    let mut inputs = Inputs::uniform(&h, true, 100.0, 0.0);
+    inputs.distance[root as usize] = at(f32::from(h.level(root)) + 1.1);
+    let plan = select(&h, &coarse, &inputs.view(), &p).unwrap();
+    assert!(plan.splits.contains(&root));
+}
+
 #[test]
 fn occlusion_jumps_to_the_root_strip_and_back() {
     let (_, h) = small_head(600, 4);
