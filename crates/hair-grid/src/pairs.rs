@@ -463,7 +463,7 @@ impl Grid {
             let n_blocks = blocks.len();
             let mut keep = [0u8; BATCH / LANES];
             for (k, block) in keep.iter_mut().zip(&mut blocks) {
-                *k = self.exact_lanes::<AVX>(block, margin) as u8;
+                *k = self.exact_lanes::<AVX>(block, margin, 0xff) as u8;
             }
             for (b, &k) in keep[..n_blocks].iter().enumerate() {
                 let mut k = k;
@@ -472,22 +472,30 @@ impl Grid {
                     k &= k - 1;
                 }
             }
-            for &p in blocks.remainder() {
-                if self.within_margin(p, margin) {
-                    pairs.push(orig(p));
+            // The last few candidates through the lanes too, padded with copies of the last one
+            // and masked: the scalar test reads the shapes in section order, a cache miss each.
+            let rest = blocks.remainder();
+            if let Some(&last) = rest.last() {
+                let mut block = [last; LANES];
+                block[..rest.len()].copy_from_slice(rest);
+                let mut k = self.exact_lanes::<AVX>(&block, margin, (1 << rest.len()) - 1);
+                while k != 0 {
+                    pairs.push(orig(rest[k.trailing_zeros() as usize]));
+                    k &= k - 1;
                 }
             }
         }
     }
 
-    /// The exact test on eight candidates (bit `l` set when candidate `l` is kept): hair-ssv's
+    /// The exact test on the candidates of `block` whose bits are set in `lanes` (bit `l` of the
+    /// result set when candidate `l` is kept; the other lanes are computed and ignored): hair-ssv's
     /// segment-segment kernel run lane-wise on the packed lines. It agrees with the scalar kernel
     /// up to rounding, so a pair within a rounding band of the margin (and any pair that is not
     /// two LSS) is decided by [`Ssv::distance`] itself: the result is exactly
     /// `distance <= margin`.
     #[inline(always)]
     #[allow(unsafe_code)]
-    fn exact_lanes<const AVX: bool>(&self, block: &[[u32; 2]], margin: Real) -> u32 {
+    fn exact_lanes<const AVX: bool>(&self, block: &[[u32; 2]], margin: Real, lanes: u32) -> u32 {
         let lines = &self.packed.lines;
         #[cfg(target_arch = "x86_64")]
         let (mut sure, mut open) = if AVX {
@@ -499,6 +507,7 @@ impl Grid {
         };
         #[cfg(not(target_arch = "x86_64"))]
         let (mut sure, mut open) = lanes_decide(lines, block, margin);
+        (sure, open) = (sure & lanes, open & lanes);
         while open != 0 {
             let l = open.trailing_zeros() as usize;
             open &= open - 1;
