@@ -22,9 +22,8 @@ pub enum Activity {
 
 /// Hysteresis of the selection, in levels: a node splits as soon as its inputs ask for a finer
 /// level, but votes to merge only when they ask for a level at least this much coarser than its
-/// own. Speeds in gusty wind cross a level's threshold up and down from one step to the next;
-/// without the band, nodes split on one step and merged on the next (about 30 of each per step on
-/// the `zoom` scene), each time carrying the motion across levels.
+/// own, so that inputs hovering at a level's threshold do not split a node on one step and merge
+/// it on the next.
 pub const MERGE_MARGIN: Real = 0.5;
 
 /// Per-level intervals of distance and speed, given at the coarsest and finest levels and
@@ -87,19 +86,7 @@ impl SelectParams {
         self.level_with_margin(max_level, distance, speed, activity, 0.0)
     }
 
-    /// The level a node votes to merge at: [`SelectParams::desired_level`] with the inputs'
-    /// level raised by [`MERGE_MARGIN`], so that a node asks to be coarser only when its
-    /// inputs are half a level below its own, not as soon as they dip below it.
-    pub fn merge_level(
-        &self,
-        max_level: u8,
-        distance: Real,
-        speed: Real,
-        activity: Activity,
-    ) -> u8 {
-        self.level_with_margin(max_level, distance, speed, activity, MERGE_MARGIN)
-    }
-
+    /// [`SelectParams::desired_level`] with the inputs' level raised by `margin` levels.
     fn level_with_margin(
         &self,
         max_level: u8,
@@ -293,9 +280,8 @@ pub fn select(
 /// - a tree visible again after that goes straight down to the level its inputs ask for;
 /// - otherwise each active node compares the level it asks for
 ///   ([`SelectParams::desired_level`]; an invisible node asks for level 0) with its own: finer
-///   splits it; coarser by at least [`MERGE_MARGIN`] of a level ([`SelectParams::merge_level`])
-///   votes to merge, and a parent merges when all its children are active and vote so. Nothing
-///   moves more than one level.
+///   splits it; coarser by at least [`MERGE_MARGIN`] of a level votes to merge, and a parent
+///   merges when all its children are active and vote so. Nothing moves more than one level.
 pub fn select_into(
     h: &Hierarchy,
     front: &Front,
@@ -308,20 +294,16 @@ pub fn select_into(
     inputs.check(h)?;
     plan.clear();
     let max = h.max_level();
-    let desired = |n: u32| -> u8 {
+    // The level a node asks for, with `margin` levels added (an invisible node asks for 0).
+    let asks = |n: u32, margin: Real| -> u8 {
         let i = n as usize;
         if !inputs.visible[i] {
             return 0;
         }
-        params.desired_level(max, inputs.distance[i], inputs.speed[i], inputs.activity[i])
+        let (d, v, a) = (inputs.distance[i], inputs.speed[i], inputs.activity[i]);
+        params.level_with_margin(max, d, v, a, margin)
     };
-    let merge_vote = |n: u32| -> u8 {
-        let i = n as usize;
-        if !inputs.visible[i] {
-            return 0;
-        }
-        params.merge_level(max, inputs.distance[i], inputs.speed[i], inputs.activity[i])
-    };
+    let desired = |n: u32| asks(n, 0.0);
     for t in 0..h.tree_count() as u32 {
         let root = h.tree_root(t);
         if !inputs.visible[root as usize] {
@@ -359,7 +341,7 @@ pub fn select_into(
                 if kids.start == n
                     && kids
                         .clone()
-                        .all(|c| front.active[c as usize] && merge_vote(c) < h.level(c))
+                        .all(|c| front.active[c as usize] && asks(c, MERGE_MARGIN) < h.level(c))
                 {
                     plan.merges.push(p);
                 }
