@@ -101,6 +101,8 @@ pub struct Simulation {
     corrections: Vec<NodeCorrection>,
     /// Hair-hair pushes summed per node (zero between steps).
     node_push: Vec<Vector>,
+    /// Hair-hair pushes counted per node (zero between steps).
+    push_count: Vec<u32>,
     constraints: Vec<VelocityConstraint>,
     pair_list: Vec<[u32; 2]>,
     /// The sections as the hair-hair response reads them, one cache line each.
@@ -272,6 +274,7 @@ impl Simulation {
             frozen_skeleton: Vec::new(),
             corrections: Vec::new(),
             node_push: Vec::new(),
+            push_count: Vec::new(),
             constraints: Vec::new(),
             pair_list: Vec::new(),
             contact_sections: Vec::new(),
@@ -783,6 +786,7 @@ impl Simulation {
             self.corrections.clear();
             self.node_push
                 .resize(self.state.node_count(), Vector::zeros());
+            self.push_count.resize(self.state.node_count(), 0);
             for r in &self.pair_responses {
                 match *r {
                     PairResponse::None => {}
@@ -802,16 +806,26 @@ impl Simulation {
                         stats.hair_contacts += 1;
                         self.node_push[a as usize] -= half;
                         self.node_push[b as usize] += half;
+                        self.push_count[a as usize] += 1;
+                        self.push_count[b as usize] += 1;
                     }
                 }
             }
-            // One correction per pushed node (a section has dozens of neighbours in dense hair),
-            // summed in pair order.
-            for (node, push) in self.node_push.iter_mut().enumerate() {
+            // One correction per pushed node (a section has dozens of neighbours in dense hair):
+            // its pairs' pushes summed in pair order, or their mean (`PushCombine`).
+            let mean = self.scene.collision.hair_hair_push == crate::scene::PushCombine::Mean;
+            let counts = self.push_count.iter_mut();
+            for ((node, push), pushes) in self.node_push.iter_mut().enumerate().zip(counts) {
+                let pushes = std::mem::take(pushes);
                 if *push != Vector::zeros() {
+                    let delta = if mean {
+                        *push / pushes.max(1) as Real
+                    } else {
+                        *push
+                    };
                     self.corrections.push(NodeCorrection {
                         node: node as u32,
-                        delta: *push,
+                        delta,
                     });
                     *push = Vector::zeros();
                 }
@@ -1228,7 +1242,8 @@ enum PairResponse {
     None,
     /// Near-parallel sections in contact: their joints share their rates.
     Share(u32, u32),
-    /// Crossing sections overlapping: each node moves half the overlap apart.
+    /// Crossing sections overlapping: the second node's push, half the overlap along the line
+    /// between the closest points (the first is pushed the opposite way).
     Push(u32, u32, Vector),
 }
 
