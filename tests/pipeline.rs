@@ -229,6 +229,13 @@ fn every_scene_file_parses_and_bad_scenes_name_the_field() {
     // The scene files that are not built in.
     let big = Scene::load("scenes/strands10k.ron").unwrap();
     assert_eq!(big.scene.name, "strands10k");
+    let mean = Scene::load("scenes/wardlin-mean.ron").unwrap();
+    let wardlin = Scene::load("wardlin").unwrap();
+    assert_eq!(
+        mean.scene.collision.hair_hair_push,
+        hair::scene::PushCombine::Mean
+    );
+    assert_eq!(mean.scene.hairstyle, wardlin.scene.hairstyle);
     let err = Scene::from_ron("Scene(frame_rate: -1.0)", "bad.ron")
         .unwrap_err()
         .to_string();
