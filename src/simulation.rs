@@ -99,10 +99,8 @@ pub struct Simulation {
     previous_positions: Vec<Point>,
     frozen_skeleton: Vec<bool>,
     corrections: Vec<NodeCorrection>,
-    /// Hair-hair pushes summed per node (zero between steps).
-    node_push: Vec<Vector>,
-    /// Hair-hair pushes counted per node (zero between steps).
-    push_count: Vec<u32>,
+    /// Hair-hair pushes per node: their sum and their number (zero between steps).
+    node_push: Vec<(Vector, u32)>,
     constraints: Vec<VelocityConstraint>,
     pair_list: Vec<[u32; 2]>,
     /// The sections as the hair-hair response reads them, one cache line each.
@@ -274,7 +272,6 @@ impl Simulation {
             frozen_skeleton: Vec::new(),
             corrections: Vec::new(),
             node_push: Vec::new(),
-            push_count: Vec::new(),
             constraints: Vec::new(),
             pair_list: Vec::new(),
             contact_sections: Vec::new(),
@@ -785,8 +782,7 @@ impl Simulation {
                 .collect_into_vec(&mut self.pair_responses);
             self.corrections.clear();
             self.node_push
-                .resize(self.state.node_count(), Vector::zeros());
-            self.push_count.resize(self.state.node_count(), 0);
+                .resize(self.state.node_count(), (Vector::zeros(), 0));
             for r in &self.pair_responses {
                 match *r {
                     PairResponse::None => {}
@@ -804,30 +800,29 @@ impl Simulation {
                     }
                     PairResponse::Push(a, b, half) => {
                         stats.hair_contacts += 1;
-                        self.node_push[a as usize] -= half;
-                        self.node_push[b as usize] += half;
-                        self.push_count[a as usize] += 1;
-                        self.push_count[b as usize] += 1;
+                        let (a, b) = (a as usize, b as usize);
+                        self.node_push[a].0 -= half;
+                        self.node_push[a].1 += 1;
+                        self.node_push[b].0 += half;
+                        self.node_push[b].1 += 1;
                     }
                 }
             }
             // One correction per pushed node (a section has dozens of neighbours in dense hair):
             // its pairs' pushes summed in pair order, or their mean (`PushCombine`).
             let mean = self.scene.collision.hair_hair_push == crate::scene::PushCombine::Mean;
-            let counts = self.push_count.iter_mut();
-            for ((node, push), pushes) in self.node_push.iter_mut().enumerate().zip(counts) {
-                let pushes = std::mem::take(pushes);
-                if *push != Vector::zeros() {
+            for (node, entry) in self.node_push.iter_mut().enumerate() {
+                let (push, pushes) = std::mem::replace(entry, (Vector::zeros(), 0));
+                if push != Vector::zeros() {
                     let delta = if mean {
-                        *push / pushes.max(1) as Real
+                        push / pushes.max(1) as Real
                     } else {
-                        *push
+                        push
                     };
                     self.corrections.push(NodeCorrection {
                         node: node as u32,
                         delta,
                     });
-                    *push = Vector::zeros();
                 }
             }
             self.state.apply_corrections(&self.corrections)?;

@@ -3,6 +3,15 @@
 
 use hair::{LodPolicy, Scene, Simulation};
 
+/// Runs `f` on a pool of `threads` worker threads.
+fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool")
+        .install(f)
+}
+
 /// Runs a built-in scene for `steps` steps at `policy` on `threads` threads; checks the state
 /// and the drawn strands are finite and returns the hash after `hash_at` steps, the hash at the
 /// end, the deepest penetration after the depenetration ramp and the scene's tolerance.
@@ -15,11 +24,7 @@ fn run(
 ) -> (u64, u64, f64, f64) {
     let scene = Scene::load(name).expect("built-in scene");
     let tolerance = f64::from(scene.scene.collision.tolerance);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("pool");
-    pool.install(|| {
+    on_threads(threads, || {
         let mut sim = Simulation::new(&scene, policy).expect("scene builds");
         let ramp = u64::from(scene.scene.collision.depenetration_steps);
         let mut worst: f64 = 0.0;
@@ -264,11 +269,7 @@ fn mean_hair_hair_push_is_used_and_deterministic() {
     let hash = |push: hair::scene::PushCombine, threads: usize| {
         let mut scene = Scene::load("wind").unwrap();
         scene.scene.collision.hair_hair_push = push;
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
             let mut contacts = 0;
             for _ in 0..12 {
