@@ -127,6 +127,76 @@ pub fn is_closed(triangles: &[[u32; 3]]) -> bool {
             .all(|&(a, b)| edges.binary_search(&(b, a)).is_ok())
 }
 
+/// Caps every hole of a mesh with a fan of triangles around the hole's centroid, wound like the
+/// triangles around it, and returns how many holes it capped. A hole is a loop of boundary
+/// edges: directed edges whose reverse no triangle has. A mesh with a boundary vertex where two
+/// holes meet (more than one boundary edge leaving it), or with a directed edge used twice, is
+/// left as it is (0): a fan cannot close it into one surface. A closed mesh has no holes.
+///
+/// Why: only a closed surface has an inside. Near an open mesh's hole the side of a point is
+/// decided by whichever face is closest, so the signed distance flips across the opening with no
+/// surface there, and a node pushed out on one side reads as centimetres deep on the other. A
+/// fan is exact for a planar convex hole and a fair lid for the rounded openings of scanned and
+/// modelled bodies (eye sockets, a neck or arm cut).
+pub fn cap_holes(vertices: &mut Vec<Point>, triangles: &mut Vec<[u32; 3]>) -> usize {
+    let mut edges: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    edges.sort_unstable();
+    if edges.windows(2).any(|w| w[0] == w[1]) {
+        return 0;
+    }
+    // Boundary edges in order of their first vertex: the lookup of the edge leaving a vertex.
+    let boundary: Vec<(u32, u32)> = edges
+        .iter()
+        .filter(|&&(a, b)| edges.binary_search(&(b, a)).is_err())
+        .copied()
+        .collect();
+    if boundary.windows(2).any(|w| w[0].0 == w[1].0) {
+        return 0;
+    }
+    let mut used = vec![false; boundary.len()];
+    let mut loops: Vec<Vec<u32>> = Vec::new();
+    for (k, &(start, _)) in boundary.iter().enumerate() {
+        if used[k] {
+            continue;
+        }
+        let mut ring = Vec::new();
+        let mut v = start;
+        loop {
+            let Ok(e) = boundary.binary_search_by_key(&v, |e| e.0) else {
+                return 0;
+            };
+            if used[e] {
+                break;
+            }
+            used[e] = true;
+            ring.push(v);
+            v = boundary[e].1;
+        }
+        // The walk must come back to where it started; anything else is not one loop.
+        if v != start || ring.len() < 3 {
+            return 0;
+        }
+        loops.push(ring);
+    }
+    for ring in &loops {
+        let centre = ring
+            .iter()
+            .fold(Vector::zeros(), |s, &v| s + vertices[v as usize].coords)
+            / ring.len() as Real;
+        let c = vertices.len() as u32;
+        vertices.push(Point::from(centre));
+        // The mesh holds the boundary edge (a, b); the lid's triangle holds its reverse.
+        for (i, &a) in ring.iter().enumerate() {
+            let b = ring[(i + 1) % ring.len()];
+            triangles.push([b, a, c]);
+        }
+    }
+    loops.len()
+}
+
 /// Samples of the body's signed distance at the vertices of a regular grid (about 4 million
 /// vertices over the body's bounds, so a few millimetres apart on a head), each computed by the
 /// exact BVH query the first time a query needs it and kept. A query interpolates the eight
@@ -502,15 +572,20 @@ impl BodyModel {
                 path,
                 scale,
                 offset,
+                close_holes,
             } => {
                 let mesh = hair_io::obj::read(&base_dir.join(path))?;
                 let off = Vector::from(*offset);
-                let v = mesh
+                let mut v = mesh
                     .vertices
                     .iter()
                     .map(|p| Point::from(Vector::from(*p) * *scale + off))
                     .collect();
-                (v, mesh.triangles, false)
+                let mut t = mesh.triangles;
+                if *close_holes {
+                    cap_holes(&mut v, &mut t);
+                }
+                (v, t, false)
             }
         };
         let bvh = Bvh::new(&vertices, &triangles)?;
@@ -809,5 +884,63 @@ mod tests {
             }
         }
         assert!(skipped > 1000, "{skipped} queries skipped");
+    }
+
+    /// A unit cube without its top and bottom faces has two holes; capping them makes a closed
+    /// surface whose signed distance gives the right side everywhere, including in the lids'
+    /// openings. A closed mesh, and one whose holes meet at a vertex, are left as they are.
+    #[test]
+    fn capped_holes_close_the_mesh() {
+        let cube: Vec<Point> = (0..8)
+            .map(|i| Point::new((i & 1) as Real, ((i >> 1) & 1) as Real, (i >> 2) as Real))
+            .collect();
+        let closed: Vec<[u32; 3]> = vec![
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
+        let (mut v, mut t) = (cube.clone(), closed.clone());
+        assert_eq!(cap_holes(&mut v, &mut t), 0);
+        assert_eq!((v.len(), t.len()), (8, 12));
+
+        let (mut v, mut t) = (cube.clone(), closed[4..].to_vec());
+        assert!(!is_closed(&t));
+        assert_eq!(cap_holes(&mut v, &mut t), 2);
+        assert_eq!((v.len(), t.len()), (10, 8 + 8));
+        assert!(is_closed(&t));
+        let bvh = Bvh::new(&v, &t).unwrap();
+        let normals = PseudoNormals::new(&v, &t).expect("capped");
+        let mut rng = SplitMix(3);
+        for _ in 0..2000 {
+            let p = Point::new(
+                rng.range(-0.5, 1.5),
+                rng.range(-0.5, 1.5),
+                rng.range(-0.5, 1.5),
+            );
+            let (d, _, _) = exact_signed_distance(&bvh, Some(&normals), &p).unwrap();
+            let inside = p.coords.iter().all(|&x| (0.0..=1.0).contains(&x));
+            assert_eq!(d < 0.0, inside, "{p:?} {d}");
+        }
+
+        // Two triangles meeting at one vertex: two boundary edges leave it, so no fan closes it.
+        let bowtie = vec![
+            Point::new(0.0, 0.0, 0.0),
+            Point::new(1.0, 0.0, 0.0),
+            Point::new(1.0, 1.0, 0.0),
+            Point::new(-1.0, 0.0, 0.0),
+            Point::new(-1.0, -1.0, 0.0),
+        ];
+        let (mut v, mut t) = (bowtie, vec![[0, 1, 2], [0, 3, 4]]);
+        assert_eq!(cap_holes(&mut v, &mut t), 0);
+        assert_eq!((v.len(), t.len()), (5, 2));
     }
 }

@@ -182,6 +182,14 @@ pub enum BodySpec {
         scale: f32,
         /// Offset added after scaling (m).
         offset: [f32; 3],
+        /// Cap each hole of the mesh (a loop of edges with a triangle on one side only) with a
+        /// fan of triangles around the loop's centroid, so that the body is a closed surface with
+        /// an inside. Default true. An open mesh has no inside near its holes: the signed
+        /// distance changes sign across the hole's opening without a surface there, and hair
+        /// pushed out of the body on one side of it reads as deep inside on the other (the
+        /// Sintel bust's eye sockets did this). Meshes whose holes are not simple loops stay open.
+        #[serde(default = "yes")]
+        close_holes: bool,
     },
     /// A torus with wrinkles, lying in the xz plane (Ward & Lin's brushing scene).
     Torus {
@@ -196,6 +204,11 @@ pub enum BodySpec {
         /// Wrinkle depth as a fraction of the tube radius.
         depth: f32,
     },
+}
+
+/// Serde default for flags that are on unless a scene turns them off.
+fn yes() -> bool {
+    true
 }
 
 impl Default for BodySpec {
@@ -386,7 +399,7 @@ impl Default for CollisionSpec {
             friction: 0.3,
             hair_hair: true,
             parallel_angle: 0.3,
-            hair_hair_push: PushCombine::Sum,
+            hair_hair_push: PushCombine::Mean,
             tolerance: 1e-3,
             depenetration_steps: 10,
         }
@@ -397,15 +410,16 @@ impl Default for CollisionSpec {
 /// two sections to move apart by half their overlap each.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PushCombine {
-    /// The node moves by the sum of its pairs' pushes.
-    #[default]
+    /// The node moves by the sum of its pairs' pushes. A wisp in dense hair overlaps dozens of
+    /// others (about 40 on `wardlin`), and each pair's push alone separates that pair: summed,
+    /// they overshoot by up to the number of pairs, which makes the hair far more sensitive to
+    /// its initial state. On `wardlin`, runs whose gravity differs by one part in a million end
+    /// 29.8 mm RMS apart with `Sum` and 0.9 mm with `Mean` (`hair study`'s
+    /// `chaos_floor_rms_mm`), and the hair keeps gaining kinetic energy in a steady wind.
     Sum,
-    /// The node moves by their mean. A wisp in dense hair overlaps dozens of others (about 40 on
-    /// `wardlin`), and each pair's push alone separates that pair: summed, they overshoot by up
-    /// to the number of pairs, which makes the hair far more sensitive to its initial state.
-    /// On `wardlin`, runs whose gravity differs by one part in a million end 29.8 mm RMS apart
-    /// with `Sum` and 0.9 mm with `Mean` (`hair study`'s `chaos_floor_rms_mm`). Dense hair
-    /// overlaps more (about twice the contacts on `wardlin`).
+    /// The node moves by their mean (the default): a Jacobi average of what its pairs ask. Dense
+    /// hair then overlaps more (about twice the contacts on `wardlin`) but settles.
+    #[default]
     Mean,
 }
 

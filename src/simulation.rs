@@ -911,7 +911,10 @@ impl Simulation {
     /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
     /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Passes from
     /// [`BODY_PASSES`] on use the exact distance, whatever the scene's method, once at most
-    /// [`EXACT_LATE_NODES`] nodes are left. Returns the nodes in contact on the first pass and
+    /// [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose centre is still
+    /// inside by more than half the tolerance to the nearest point of its sphere about its parent
+    /// that clears the body ([`escape`]): lifting along the node's own normal can land it inside
+    /// again where the body is thin (an ear) or creased, pass after pass. Returns the nodes in contact on the first pass and
     /// the deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
@@ -973,6 +976,8 @@ impl Simulation {
             self.corrections.clear();
             self.constraints.clear();
             deepest = 0.0;
+            // Nodes sent to [`escape`] this pass (each costs up to a few hundred exact queries).
+            let mut escapes = 0;
             self.first_moved.clear();
             self.first_moved
                 .resize(self.state.skeleton_count(), u32::MAX);
@@ -991,7 +996,23 @@ impl Simulation {
                 let p = positions[bn.node as usize];
                 let lift = (bn.radius - d) * fraction;
                 let mut target = p + n * lift;
-                if bn.prev != u32::MAX {
+                // After the ramp, a node still inside after the regular passes is caught where
+                // lifting along its own normal lands in the body again (a thin part such as an
+                // ear, or a crease): it goes to the nearest place on its sphere that clears.
+                let stuck = fraction == 1.0
+                    && pass >= BODY_PASSES
+                    && -d > tolerance
+                    && escapes < EXACT_LATE_NODES;
+                escapes += usize::from(stuck);
+                if stuck && bn.prev != u32::MAX {
+                    let a = positions[bn.prev as usize];
+                    let len = (p - a).norm();
+                    if len > 1e-9
+                        && let Some(t) = escape(body, a, (p - a) / len, len, bn.radius, -d)
+                    {
+                        target = t;
+                    }
+                } else if bn.prev != u32::MAX {
                     let a = positions[bn.prev as usize];
                     let len = (p - a).norm();
                     if len > 1e-9 {
@@ -1183,6 +1204,52 @@ fn turn_out(
             .is_none_or(|(d, _)| d >= radius)
             .then_some(q)
     })
+}
+
+/// Where a node caught inside the body can go on its sphere about its parent node `a` (radius
+/// `len`, the segment's direction now `u0`): of [`ESCAPE_DIRECTIONS`] directions spread evenly
+/// over the sphere, the one nearest `u0` whose point leaves the node's centre `radius` outside by
+/// the exact distance; failing that, the one whose point is least deep, if it is less deep than
+/// the node (`depth`) now. `None` when no direction improves on where the node is.
+fn escape(
+    body: &BodyModel,
+    a: Point,
+    u0: Vector,
+    len: Real,
+    radius: Real,
+    depth: Real,
+) -> Option<Point> {
+    let mut order: [(Real, u16); ESCAPE_DIRECTIONS] = [(0.0, 0); ESCAPE_DIRECTIONS];
+    for (k, slot) in order.iter_mut().enumerate() {
+        *slot = (-sphere_direction(k).dot(&u0), k as u16);
+    }
+    order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    let mut best: Option<(Real, Point)> = None;
+    for &(_, k) in &order {
+        let q = a + sphere_direction(k as usize) * len;
+        let d = body
+            .distance(CollisionMethod::Bvh, &q)
+            .map_or(Real::INFINITY, |(d, _)| d);
+        if d >= radius {
+            return Some(q);
+        }
+        if best.is_none_or(|(b, _)| d > b) {
+            best = Some((d, q));
+        }
+    }
+    best.filter(|&(d, _)| -d < depth).map(|(_, q)| q)
+}
+
+/// Directions [`escape`] tries: enough that neighbours are about 15 degrees apart.
+const ESCAPE_DIRECTIONS: usize = 192;
+
+/// The `k`-th of [`ESCAPE_DIRECTIONS`] unit vectors on a Fibonacci sphere (evenly spread).
+fn sphere_direction(k: usize) -> Vector {
+    let golden = std::f32::consts::PI * (3.0 - 5.0f32.sqrt());
+    let y = 1.0 - 2.0 * (k as Real + 0.5) / ESCAPE_DIRECTIONS as Real;
+    let r = (1.0 - y * y).max(0.0).sqrt();
+    let phi = golden * k as Real;
+    Vector::new(r * phi.cos(), y, r * phi.sin())
 }
 
 /// Directions [`turn_out`] tries between a segment and the body's normal at its parent node.

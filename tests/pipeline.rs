@@ -223,7 +223,21 @@ fn sintel_loads_with_its_guide_strands() {
     let scene = Scene::load("sintel").unwrap();
     let sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
     assert_eq!(sim.render_geometry().strand_count(), 228);
-    assert!(sim.body().is_some_and(|b| b.triangles.len() == 5952));
+    // The bust's six holes (eye sockets, mouth, neck and arm cuts: 148 boundary edges) are
+    // capped, one lid triangle per boundary edge, so the body is a closed surface.
+    assert!(
+        sim.body()
+            .is_some_and(|b| b.triangles.len() == 5952 + 148 && b.closed)
+    );
+    let mut open = scene.clone();
+    if let hair::scene::BodySpec::Obj { close_holes, .. } = &mut open.scene.body {
+        *close_holes = false;
+    }
+    let sim = Simulation::new(&open, LodPolicy::Fine).unwrap();
+    assert!(
+        sim.body()
+            .is_some_and(|b| b.triangles.len() == 5952 && !b.closed)
+    );
 }
 
 #[test]
@@ -234,13 +248,17 @@ fn every_scene_file_parses_and_bad_scenes_name_the_field() {
     // The scene files that are not built in.
     let big = Scene::load("scenes/strands10k.ron").unwrap();
     assert_eq!(big.scene.name, "strands10k");
-    let mean = Scene::load("scenes/wardlin-mean.ron").unwrap();
+    let sum = Scene::load("scenes/wardlin-sum.ron").unwrap();
     let wardlin = Scene::load("wardlin").unwrap();
     assert_eq!(
-        mean.scene.collision.hair_hair_push,
+        sum.scene.collision.hair_hair_push,
+        hair::scene::PushCombine::Sum
+    );
+    assert_eq!(
+        wardlin.scene.collision.hair_hair_push,
         hair::scene::PushCombine::Mean
     );
-    assert_eq!(mean.scene.hairstyle, wardlin.scene.hairstyle);
+    assert_eq!(sum.scene.hairstyle, wardlin.scene.hairstyle);
     let err = Scene::from_ron("Scene(frame_rate: -1.0)", "bad.ron")
         .unwrap_err()
         .to_string();
@@ -262,10 +280,10 @@ fn every_scene_file_parses_and_bad_scenes_name_the_field() {
     assert!(Scene::load("no-such-scene").is_err());
 }
 
-/// `hair_hair_push: Mean` parses, takes effect (the hair moves otherwise than with `Sum` once
-/// pairs overlap) and is deterministic across thread counts.
+/// `hair_hair_push` parses, takes effect (the hair moves otherwise with `Sum` than with the
+/// default `Mean` once pairs overlap) and is deterministic across thread counts.
 #[test]
-fn mean_hair_hair_push_is_used_and_deterministic() {
+fn hair_hair_push_is_used_and_deterministic() {
     let hash = |push: hair::scene::PushCombine, threads: usize| {
         let mut scene = Scene::load("wind").unwrap();
         scene.scene.collision.hair_hair_push = push;
@@ -286,8 +304,16 @@ fn mean_hair_hair_push_is_used_and_deterministic() {
         hash(Mean, 1).0,
         "Mean: hash differs between 1 and 2 threads"
     );
-    assert_ne!(mean, hash(Sum, 2).0, "Mean moved the hair as Sum does");
-    let parsed = Scene::from_ron("Scene(collision: (hair_hair_push: Mean))", "mean.ron").unwrap();
-    assert_eq!(parsed.collision.hair_hair_push, Mean);
+    let sum = hash(Sum, 2).0;
+    assert_ne!(mean, sum, "Mean moved the hair as Sum does");
+    assert_eq!(
+        sum,
+        hash(Sum, 1).0,
+        "Sum: hash differs between 1 and 2 threads"
+    );
+    let parsed = Scene::from_ron("Scene(collision: (hair_hair_push: Sum))", "sum.ron").unwrap();
+    assert_eq!(parsed.collision.hair_hair_push, Sum);
+    let default = Scene::from_ron("Scene()", "default.ron").unwrap();
+    assert_eq!(default.collision.hair_hair_push, Mean);
     assert!(Scene::from_ron("Scene(collision: (hair_hair_push: Max))", "bad.ron").is_err());
 }
