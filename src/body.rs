@@ -819,23 +819,7 @@ mod tests {
         let open = PseudoNormals::new(&head.vertices, &head.triangles[1..]);
         assert!(open.is_none());
         // A cube: sharp edges and corners, where a wrong feature's normal gives the wrong side.
-        let vertices: Vec<Point> = (0..8)
-            .map(|i| Point::new((i & 1) as Real, ((i >> 1) & 1) as Real, (i >> 2) as Real))
-            .collect();
-        let triangles: Vec<[u32; 3]> = vec![
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ];
+        let (vertices, triangles) = unit_cube();
         let bvh = Bvh::new(&vertices, &triangles).unwrap();
         let normals = PseudoNormals::new(&vertices, &triangles).expect("a cube is closed");
         for k in 0..4000 {
@@ -886,15 +870,13 @@ mod tests {
         assert!(skipped > 1000, "{skipped} queries skipped");
     }
 
-    /// A unit cube without its top and bottom faces has two holes; capping them makes a closed
-    /// surface whose signed distance gives the right side everywhere, including in the lids'
-    /// openings. A closed mesh, and one whose holes meet at a vertex, are left as they are.
-    #[test]
-    fn capped_holes_close_the_mesh() {
-        let cube: Vec<Point> = (0..8)
+    /// The unit cube `[0, 1]^3`, wound outward; its first two triangles are the bottom (z = 0)
+    /// and the next two the top (z = 1).
+    fn unit_cube() -> (Vec<Point>, Vec<[u32; 3]>) {
+        let vertices = (0..8)
             .map(|i| Point::new((i & 1) as Real, ((i >> 1) & 1) as Real, (i >> 2) as Real))
             .collect();
-        let closed: Vec<[u32; 3]> = vec![
+        let triangles = vec![
             [0, 2, 1],
             [1, 2, 3],
             [4, 5, 6],
@@ -908,6 +890,15 @@ mod tests {
             [1, 3, 5],
             [3, 7, 5],
         ];
+        (vertices, triangles)
+    }
+
+    /// A unit cube without its top and bottom faces has two holes; capping them makes a closed
+    /// surface whose signed distance gives the right side everywhere, including in the lids'
+    /// openings. A closed mesh, and one whose holes meet at a vertex, are left as they are.
+    #[test]
+    fn capped_holes_close_the_mesh() {
+        let (cube, closed) = unit_cube();
         let (mut v, mut t) = (cube.clone(), closed.clone());
         assert_eq!(cap_holes(&mut v, &mut t), 0);
         assert_eq!((v.len(), t.len()), (8, 12));
