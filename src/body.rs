@@ -115,16 +115,22 @@ impl PseudoNormals {
 /// Whether `triangles` form a closed, consistently wound surface: each directed edge appears
 /// once and its reverse once.
 pub fn is_closed(triangles: &[[u32; 3]]) -> bool {
-    let mut edges: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .collect();
-    edges.sort_unstable();
+    let edges = directed_edges(triangles);
     let unique = edges.windows(2).all(|w| w[0] != w[1]);
     unique
         && edges
             .iter()
             .all(|&(a, b)| edges.binary_search(&(b, a)).is_ok())
+}
+
+/// Every triangle's three directed edges in winding order, sorted.
+fn directed_edges(triangles: &[[u32; 3]]) -> Vec<(u32, u32)> {
+    let mut edges: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    edges.sort_unstable();
+    edges
 }
 
 /// Caps every hole of a mesh with a fan of triangles around the hole's centroid, wound like the
@@ -139,11 +145,7 @@ pub fn is_closed(triangles: &[[u32; 3]]) -> bool {
 /// fan is exact for a planar convex hole and a fair lid for the rounded openings of scanned and
 /// modelled bodies (eye sockets, a neck or arm cut).
 pub fn cap_holes(vertices: &mut Vec<Point>, triangles: &mut Vec<[u32; 3]>) -> usize {
-    let mut edges: Vec<(u32, u32)> = triangles
-        .iter()
-        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .collect();
-    edges.sort_unstable();
+    let edges = directed_edges(triangles);
     if edges.windows(2).any(|w| w[0] == w[1]) {
         return 0;
     }
@@ -903,7 +905,7 @@ mod tests {
         assert_eq!(cap_holes(&mut v, &mut t), 0);
         assert_eq!((v.len(), t.len()), (8, 12));
 
-        let (mut v, mut t) = (cube.clone(), closed[4..].to_vec());
+        let (mut v, mut t) = (cube, closed[4..].to_vec());
         assert!(!is_closed(&t));
         assert_eq!(cap_holes(&mut v, &mut t), 2);
         assert_eq!((v.len(), t.len()), (10, 8 + 8));

@@ -914,8 +914,8 @@ impl Simulation {
     /// [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose centre is still
     /// inside by more than half the tolerance to the nearest point of its sphere about its parent
     /// that clears the body ([`escape`]): lifting along the node's own normal can land it inside
-    /// again where the body is thin (an ear) or creased, pass after pass. Returns the nodes in contact on the first pass and
-    /// the deepest node centre left inside the body (m).
+    /// again where the body is thin (an ear) or creased, pass after pass. Returns the nodes in
+    /// contact on the first pass and the deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
             return Ok((0, 0.0));
@@ -996,40 +996,35 @@ impl Simulation {
                 let p = positions[bn.node as usize];
                 let lift = (bn.radius - d) * fraction;
                 let mut target = p + n * lift;
-                // After the ramp, a node still inside after the regular passes is caught where
-                // lifting along its own normal lands in the body again (a thin part such as an
-                // ear, or a crease): it goes to the nearest place on its sphere that clears.
-                let stuck = fraction == 1.0
-                    && pass >= BODY_PASSES
-                    && -d > tolerance
-                    && escapes < EXACT_LATE_NODES;
-                escapes += usize::from(stuck);
-                if stuck && bn.prev != u32::MAX {
-                    let a = positions[bn.prev as usize];
-                    let len = (p - a).norm();
-                    if len > 1e-9
-                        && let Some(t) = escape(body, a, (p - a) / len, len, bn.radius, -d)
-                    {
-                        target = t;
-                    }
-                } else if bn.prev != u32::MAX {
+                if bn.prev != u32::MAX {
                     let a = positions[bn.prev as usize];
                     let len = (p - a).norm();
                     if len > 1e-9 {
                         let u0 = (p - a) / len;
+                        // After the ramp, a node still inside after the regular passes is caught
+                        // where lifting along its own normal lands in the body again (a thin part
+                        // such as an ear, or a crease): it goes to the nearest place on its sphere
+                        // that clears.
+                        let stuck = fraction == 1.0
+                            && pass >= BODY_PASSES
+                            && -d > tolerance
+                            && escapes < EXACT_LATE_NODES;
+                        escapes += usize::from(stuck);
                         let c = (n.dot(&u0) * len + lift) / len;
-                        target = match (c > 1.0)
+                        target = if stuck {
+                            escape(body, a, u0, len, bn.radius, -d).unwrap_or(target)
+                        } else if let Some(t) = (c > 1.0)
                             .then(|| turn_out(body, method, a, u0, len, bn.radius))
+                            .flatten()
                         {
-                            Some(Some(t)) => t,
-                            _ => {
-                                let c = c.clamp(-1.0, 1.0);
-                                let side = u0 - n * n.dot(&u0);
-                                let side = side
-                                    .try_normalize(1e-6)
-                                    .unwrap_or_else(|| any_perpendicular(n));
-                                a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
-                            }
+                            t
+                        } else {
+                            let c = c.clamp(-1.0, 1.0);
+                            let side = u0 - n * n.dot(&u0);
+                            let side = side
+                                .try_normalize(1e-6)
+                                .unwrap_or_else(|| any_perpendicular(n));
+                            a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
                         };
                     }
                 }
