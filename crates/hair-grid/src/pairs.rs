@@ -8,7 +8,9 @@
 //! a row at a time with packed compares; a box hit is kept when the cell is the first one both
 //! cover, read from the earlier-cell bit sets stored with the entries (`earlier_cells`, `owner`;
 //! `Grid::first_shared` when they cannot tell); the survivors get the exact SSV test, eight at a
-//! time.
+//! time. On a processor with AVX-512 the cell is laid out in blocks of sixteen instead, and a row
+//! keeps its pairs with lane masks (box, neighbour and owner tests) and one compress per block,
+//! with no loop over the hits. Every kernel gives the same pairs in the same order.
 
 use rayon::prelude::*;
 
@@ -76,6 +78,26 @@ struct PairChunk {
     /// unpredictably).
     cand: Vec<[u32; 2]>,
     n_cand: usize,
+    /// The sections of the current cell in blocks of sixteen (the AVX-512 kernel's layout).
+    blocks: Vec<Block16>,
+}
+
+/// Sixteen sections of a cell, each field one AVX-512 register: the wide kernel's layout. Every
+/// column of a block sits at a fixed offset from one pointer, so that the row loop keeps its
+/// registers for the tests (with a pointer per column they were spilled and reloaded in the
+/// loop). Lanes past the cell's last section have NaN boxes, which fail every comparison.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+struct Block16 {
+    /// Box minimum and maximum, by axis.
+    lo: [[f32; 16]; 3],
+    hi: [[f32; 16]; 3],
+    skel: [u32; 16],
+    seg: [u32; 16],
+    /// The entry's section (internal index).
+    ents: [u32; 16],
+    /// Earlier-cell bit sets ([`earlier_cells`]).
+    earlier: [u64; 16],
 }
 
 /// What a pair search reports.
@@ -96,8 +118,10 @@ struct CellCols {
     boxes: [Vec<f32>; 6],
     /// Earlier-cell bit sets ([`earlier_cells`]), padded with zeros.
     earlier: Vec<u64>,
-    /// Skeleton and segment.
-    ids: Vec<[u32; 2]>,
+    /// Skeleton and segment, and the entry's section (internal index), padded with zeros.
+    skel: Vec<u32>,
+    seg: Vec<u32>,
+    ents: Vec<u32>,
 }
 
 /// The box columns of one cell, each `len` long (the entries and their padding), sliced once per
@@ -253,12 +277,12 @@ impl Grid {
     }
 
     fn enumerate_pairs(&self, out: &mut PairSet, exact: bool, ranked: bool) {
-        self.enumerate_pairs_with(out, Report { exact, ranked }, has_avx2());
+        self.enumerate_pairs_with(out, Report { exact, ranked }, Kernel::best());
     }
 
-    /// The pair search, with the AVX2 kernels or the baseline ones (`avx2` must be true only
-    /// when [`has_avx2`]).
-    fn enumerate_pairs_with(&self, out: &mut PairSet, report: Report, avx2: bool) {
+    /// The pair search with the given kernels (a kernel this processor lacks falls back to the
+    /// next narrower one). Every kernel gives the same pairs in the same order.
+    fn enumerate_pairs_with(&self, out: &mut PairSet, report: Report, kernel: Kernel) {
         out.clear();
         let n_cells = self.cell_keys.len();
         let bounds = &mut out.bounds;
@@ -281,19 +305,39 @@ impl Grid {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
-        let avx2 = avx2 && has_avx2();
+        let kernel = kernel.min(Kernel::best());
         let bounds = &out.bounds;
         out.chunks[..tasks]
             .par_iter_mut()
             .enumerate()
             .for_each(|(t, chunk)| {
                 let cells = bounds[t]..bounds[t + 1];
-                if avx2 {
-                    self.task_avx2(cells, chunk, report);
-                } else {
-                    self.task::<false>(cells, chunk, report);
+                match kernel {
+                    Kernel::Avx512 => self.task_avx512(cells, chunk, report),
+                    Kernel::Avx2 => self.task_avx2(cells, chunk, report),
+                    Kernel::Base => self.task::<false, false>(cells, chunk, report),
                 }
             });
+    }
+
+    /// One task of the pair search compiled for AVX-512: the rows test sixteen boxes per
+    /// instruction and keep their pairs with lane masks and a compress (no loop over the hits);
+    /// the exact test is the AVX2 one.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    fn task_avx512(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
+        #[target_feature(enable = "avx512f,avx2,popcnt,bmi1")]
+        fn run(grid: &Grid, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
+            grid.task::<true, true>(cells, chunk, report);
+        }
+        // SAFETY: called only when `Kernel::best` found AVX-512F, AVX2, POPCNT and BMI1 on this
+        // processor.
+        unsafe { run(self, cells, chunk, report) }
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    fn task_avx512(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
+        self.task::<false, false>(cells, chunk, report);
     }
 
     /// One task of the pair search compiled for AVX2: the row tests eight boxes per instruction
@@ -304,7 +348,7 @@ impl Grid {
     fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
         #[target_feature(enable = "avx2")]
         fn run(grid: &Grid, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
-            grid.task::<true>(cells, chunk, report);
+            grid.task::<true, false>(cells, chunk, report);
         }
         // SAFETY: called only when `has_avx2` found AVX2 on this processor.
         unsafe { run(self, cells, chunk, report) }
@@ -312,12 +356,12 @@ impl Grid {
 
     #[cfg(not(target_arch = "x86_64"))]
     fn task_avx2(&self, cells: std::ops::Range<usize>, chunk: &mut PairChunk, report: Report) {
-        self.task::<false>(cells, chunk, report);
+        self.task::<false, false>(cells, chunk, report);
     }
 
     /// The pairs first reported by the cells of one task, into `chunk.pairs`.
     #[inline(always)]
-    fn task<const AVX: bool>(
+    fn task<const AVX: bool, const WIDE: bool>(
         &self,
         cells: std::ops::Range<usize>,
         chunk: &mut PairChunk,
@@ -326,7 +370,7 @@ impl Grid {
         chunk.pairs.clear();
         chunk.n_cand = 0;
         for c in cells {
-            self.cell_pairs::<AVX>(c, chunk, report);
+            self.cell_pairs::<AVX, WIDE>(c, chunk, report);
         }
         self.finish::<AVX>(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, report);
         chunk.n_cand = 0;
@@ -334,7 +378,12 @@ impl Grid {
 
     /// The candidates first reported by cell `c`, into `chunk.cand` (flushed as it fills).
     #[inline(always)]
-    fn cell_pairs<const AVX: bool>(&self, c: usize, chunk: &mut PairChunk, report: Report) {
+    fn cell_pairs<const AVX: bool, const WIDE: bool>(
+        &self,
+        c: usize,
+        chunk: &mut PairChunk,
+        report: Report,
+    ) {
         let pk = &self.packed;
         let range = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
         let ents = &pk.items[range.clone()];
@@ -343,29 +392,37 @@ impl Grid {
         if m < 2 {
             return;
         }
-        let skip = self.config.skip_neighbours;
+        #[cfg(target_arch = "x86_64")]
+        if WIDE {
+            self.cell_pairs_wide(c, chunk, report);
+            return;
+        }
         let PairChunk {
             pairs,
             cols,
             cand,
             n_cand,
+            ..
         } = chunk;
         // Gather the cell's sections into columns.
-        if cols.ids.len() < m + PAD {
+        if cols.skel.len() < m + PAD {
             for col in cols.boxes.iter_mut() {
                 col.resize(m + PAD, f32::NAN);
             }
-            cols.ids.resize(m + PAD, [0; 2]);
+            for col in [&mut cols.skel, &mut cols.seg, &mut cols.ents] {
+                col.resize(m + PAD, 0);
+            }
             cols.earlier.resize(m + PAD, 0);
         }
         cols.earlier[..m].copy_from_slice(earlier);
+        cols.ents[..m].copy_from_slice(ents);
         for col in cols.boxes.iter_mut() {
             col[m..m + PAD].fill(f32::NAN);
         }
         {
             // Slices, not vectors: their pointers stay in registers across the stores.
             let [lx, ly, lz, hx, hy, hz] = cols.boxes.each_mut().map(|c| &mut c[..m]);
-            let ids = &mut cols.ids[..m];
+            let (skel, seg) = (&mut cols.skel[..m], &mut cols.seg[..m]);
             for (e, &it) in ents.iter().enumerate() {
                 let b = &pk.boxes[it as usize];
                 lx[e] = b.lo[0];
@@ -374,7 +431,8 @@ impl Grid {
                 hx[e] = b.hi[0];
                 hy[e] = b.hi[1];
                 hz[e] = b.hi[2];
-                ids[e] = [b.skeleton, b.segment];
+                skel[e] = b.skeleton;
+                seg[e] = b.segment;
             }
         }
         let cols = &*cols;
@@ -382,7 +440,6 @@ impl Grid {
         // The count of buffered candidates lives in a register for the whole cell (through the
         // `PairChunk` it would be stored and reloaded at every hit).
         let mut nc = *n_cand;
-        let ids = &cols.ids[..m];
         let view = CellView::new(cols, m + PAD);
         for a in 0..m - 1 {
             let bx = &view.cols;
@@ -391,37 +448,12 @@ impl Grid {
                 hi: [bx[3][a], bx[4][a], bx[5][a]],
                 earlier: earlier[a],
             };
-            let [skel_a, seg_a] = ids[a];
-            let (earlier_a, ent_a) = (earlier[a], ents[a]);
+            // This row's candidates: at most one per box after `a`.
             if cand.len() < nc + m {
                 cand.resize(nc + m, [0; 2]);
             }
-            // This row's candidates: at most one per box after `a`.
             let row = &mut cand[nc..nc + m];
-            let mut k = 0;
-            let b0 = a + 1;
-            let n = m - b0;
-            for g in 0..n.div_ceil(64) {
-                let start = b0 + 64 * g;
-                let mut bits = row_hits::<AVX>(&view, &head, start, (n - 64 * g).min(64));
-                // The neighbour and owner tests hit by hit, branch-free but for the rare
-                // undecided owner. (The AVX2 kernel has already dropped the hits that share an
-                // earlier cell; the whole test lane-wise took more instructions than it saved.)
-                while bits != 0 {
-                    let b = start + bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    let [skel_b, seg_b] = ids[b];
-                    let (here, unsure) = owner(earlier_a, earlier[b]);
-                    let apart = (skel_a != skel_b) | (seg_a.abs_diff(seg_b) > skip);
-                    // Written ahead, kept by advancing `k`: no branch but for the rare `unsure`.
-                    row[k] = [ent_a, ents[b]];
-                    if apart & unsure {
-                        k += usize::from(self.first_shared(key, ent_a, ents[b]));
-                        continue;
-                    }
-                    k += usize::from(apart & here);
-                }
-            }
+            let k = self.row::<AVX>(key, &view, cols, &head, a, row);
             nc += k;
             if nc >= BATCH {
                 self.finish::<AVX>(&cand[..nc], pairs, report);
@@ -429,6 +461,150 @@ impl Grid {
             }
         }
         *n_cand = nc;
+    }
+
+    /// [`Grid::cell_pairs`] with the AVX-512 rows ([`row_avx512`]) on the cell in blocks of
+    /// sixteen.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn cell_pairs_wide(&self, c: usize, chunk: &mut PairChunk, report: Report) {
+        let pk = &self.packed;
+        let range = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
+        let ents = &pk.items[range.clone()];
+        let earlier = &self.entry_earlier[range];
+        let m = ents.len();
+        let PairChunk {
+            pairs,
+            cand,
+            n_cand,
+            blocks,
+            ..
+        } = chunk;
+        let n_blocks = m.div_ceil(16);
+        if blocks.len() < n_blocks {
+            blocks.resize(n_blocks, Block16::default());
+        }
+        let blocks = &mut blocks[..n_blocks];
+        // The last block's lanes past `m` fail every box test.
+        let last = &mut blocks[n_blocks - 1];
+        for col in last.lo.iter_mut().chain(last.hi.iter_mut()) {
+            col[m - 16 * (n_blocks - 1)..].fill(f32::NAN);
+        }
+        let mut any = 0u64;
+        for (e, (&it, &ea)) in ents.iter().zip(earlier).enumerate() {
+            let (blk, l) = (&mut blocks[e / 16], e % 16);
+            let b = &pk.boxes[it as usize];
+            for k in 0..3 {
+                blk.lo[k][l] = b.lo[k];
+                blk.hi[k][l] = b.hi[k];
+            }
+            blk.skel[l] = b.skeleton;
+            blk.seg[l] = b.segment;
+            blk.ents[l] = it;
+            blk.earlier[l] = ea;
+            any |= ea;
+        }
+        let blocks = &*blocks;
+        // Whether an owner test of this cell may be left undecided by the bit sets (both share
+        // only `OUTSIDE`, or one is `UNKNOWN`): only with such bits in the cell.
+        let special = any & (OUTSIDE | UNKNOWN) != 0;
+        let key = self.cell_keys[c];
+        let skip = self.config.skip_neighbours;
+        let mut nc = *n_cand;
+        for a in 0..m - 1 {
+            // Room for this row's candidates (at most one per box after `a`) and for the
+            // sixteen pairs the kernel writes past its last kept one.
+            if cand.len() < nc + m + 16 {
+                cand.resize(nc + m + 16, [0; 2]);
+            }
+            let row = &mut cand[nc..nc + m + 16];
+            // SAFETY: reached only from `Grid::task_avx512`, which runs only when
+            // `Kernel::best` found AVX-512F, POPCNT and BMI1 on this processor.
+            #[allow(unsafe_code)]
+            let k = unsafe { row_avx512(blocks, m, a, skip, special, row) }
+                .unwrap_or_else(|| self.row_blocks(key, blocks, m, a, row));
+            nc += k;
+            if nc >= BATCH {
+                self.finish::<true>(&cand[..nc], pairs, report);
+                nc = 0;
+            }
+        }
+        *n_cand = nc;
+    }
+
+    /// Row `a` of a cell in blocks, one pair at a time with the key lists for an undecided
+    /// owner: the wide kernel's fallback (written to the start of `row`; returns the count).
+    #[cfg(target_arch = "x86_64")]
+    fn row_blocks(
+        &self,
+        key: u64,
+        blocks: &[Block16],
+        m: usize,
+        a: usize,
+        row: &mut [[u32; 2]],
+    ) -> usize {
+        let at = |e: usize| (&blocks[e / 16], e % 16);
+        let (ba, la) = at(a);
+        let skip = self.config.skip_neighbours;
+        let mut k = 0;
+        for b in a + 1..m {
+            let (bb, lb) = at(b);
+            let overlap =
+                (0..3).all(|x| bb.lo[x][lb] <= ba.hi[x][la] && ba.lo[x][la] <= bb.hi[x][lb]);
+            let apart = ba.skel[la] != bb.skel[lb] || ba.seg[la].abs_diff(bb.seg[lb]) > skip;
+            if !(overlap && apart) {
+                continue;
+            }
+            let (here, unsure) = owner(ba.earlier[la], bb.earlier[lb]);
+            let (ent_a, ent_b) = (ba.ents[la], bb.ents[lb]);
+            if here || (unsure && self.first_shared(key, ent_a, ent_b)) {
+                row[k] = [ent_a, ent_b];
+                k += 1;
+            }
+        }
+        k
+    }
+
+    /// The candidates of row `a` of a cell (its pairs with the later sections of the cell that
+    /// this cell reports), written to the start of `row`; returns their count.
+    #[inline(always)]
+    fn row<const AVX: bool>(
+        &self,
+        key: u64,
+        view: &CellView,
+        cols: &CellCols,
+        head: &RowHead,
+        a: usize,
+        row: &mut [[u32; 2]],
+    ) -> usize {
+        let skip = self.config.skip_neighbours;
+        let m = view.len - PAD;
+        let (skel_a, seg_a, ent_a) = (cols.skel[a], cols.seg[a], cols.ents[a]);
+        let mut k = 0;
+        let b0 = a + 1;
+        let n = m - b0;
+        for g in 0..n.div_ceil(64) {
+            let start = b0 + 64 * g;
+            let mut bits = row_hits::<AVX>(view, head, start, (n - 64 * g).min(64));
+            // The neighbour and owner tests hit by hit, branch-free but for the rare undecided
+            // owner. (The AVX2 kernel has already dropped the hits that share an earlier cell;
+            // the whole test lane-wise took more instructions than it saved.)
+            while bits != 0 {
+                let b = start + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (skel_b, seg_b) = (cols.skel[b], cols.seg[b]);
+                let (here, unsure) = owner(head.earlier, view.earlier[b]);
+                let apart = (skel_a != skel_b) | (seg_a.abs_diff(seg_b) > skip);
+                // Written ahead, kept by advancing `k`: no branch but for the rare `unsure`.
+                row[k] = [ent_a, cols.ents[b]];
+                if apart & unsure {
+                    k += usize::from(self.first_shared(key, ent_a, cols.ents[b]));
+                    continue;
+                }
+                k += usize::from(apart & here);
+            }
+        }
+        k
     }
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
@@ -853,6 +1029,162 @@ fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u
     bits
 }
 
+/// The kernels of the pair search, narrowest first. Each gives the same pairs in the same
+/// order; the search runs the widest one the processor has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Kernel {
+    /// SSE2 row tests on x86-64, plain Rust elsewhere.
+    Base,
+    /// AVX2 row tests and exact test.
+    Avx2,
+    /// AVX-512F rows ([`Grid::row_avx512`]) and the AVX2 exact test.
+    Avx512,
+}
+
+impl Kernel {
+    /// The widest kernel this processor runs (checked once by the standard library, then
+    /// cached).
+    fn best() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && has_avx2()
+        {
+            return Kernel::Avx512;
+        }
+        if has_avx2() {
+            Kernel::Avx2
+        } else {
+            Kernel::Base
+        }
+    }
+}
+
+/// A row of a cell with AVX-512 ([`Grid::row`]'s result, on the cell in blocks of sixteen): the
+/// pairs of section `a` with the later sections of the cell that this cell reports, written to
+/// the start of `row`, and their count. Sixteen boxes per compare, and the neighbour and owner
+/// tests lane-wise too, so that a block's kept pairs come out of one mask and a compress, with
+/// no loop over the hits (with AVX2 that loop cost about as much as the box tests). `special`
+/// says that the cell holds bit sets with [`OUTSIDE`] or [`UNKNOWN`]; then a row with a pair
+/// the bit sets cannot tell ([`owner`]'s `unsure`, rare) gives `None`, for
+/// [`Grid::row_blocks`] to do again with the key lists. (No call inside: around one, every
+/// vector register would be spilled.)
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,popcnt,bmi1")]
+#[inline]
+#[allow(unsafe_code)]
+fn row_avx512(
+    blocks: &[Block16],
+    m: usize,
+    a: usize,
+    skip: u32,
+    special: bool,
+    row: &mut [[u32; 2]],
+) -> Option<usize> {
+    use std::arch::x86_64::{
+        __m512, __m512i, _CMP_LE_OQ, _mm512_cmp_ps_mask, _mm512_cmpgt_epu32_mask,
+        _mm512_cmpneq_epu32_mask, _mm512_loadu_epi32, _mm512_loadu_epi64, _mm512_loadu_ps,
+        _mm512_maskz_compress_epi32, _mm512_max_epu32, _mm512_min_epu32, _mm512_permutex2var_epi32,
+        _mm512_set1_epi32, _mm512_set1_epi64, _mm512_set1_ps, _mm512_setr_epi32,
+        _mm512_storeu_epi32, _mm512_sub_epi32, _mm512_test_epi64_mask, _mm512_testn_epi64_mask,
+    };
+    // The blocks hold `m` sections; `row` has room for one pair per section after `a` and
+    // sixteen more (the last block's stores go past its kept pairs).
+    assert!(a + 1 < m && blocks.len() >= m.div_ceil(16) && row.len() >= m - a - 1 + 16);
+    let (ba, la) = (&blocks[a / 16], a % 16);
+    let (lo, hi) = (
+        [0, 1, 2].map(|k| ba.lo[k][la]),
+        [0, 1, 2].map(|k| ba.hi[k][la]),
+    );
+    let lo_a = lo.map(|v| _mm512_set1_ps(v));
+    let hi_a = hi.map(|v| _mm512_set1_ps(v));
+    let ea = ba.earlier[la];
+    let earlier_a = _mm512_set1_epi64(ea as i64);
+    let window_a = _mm512_set1_epi64((ea & WINDOW) as i64);
+    let unknown = _mm512_set1_epi64(UNKNOWN as i64);
+    let unknown_a: u16 = if ea & UNKNOWN != 0 { 0xffff } else { 0 };
+    let skel_a = _mm512_set1_epi32(ba.skel[la] as i32);
+    let seg_a = _mm512_set1_epi32(ba.seg[la] as i32);
+    let skip = _mm512_set1_epi32(skip as i32);
+    let ent_a = _mm512_set1_epi32(ba.ents[la] as i32);
+    // The pair `[ent_a, b_l]` of lane `l` of the compressed entries: lanes 0-7, then 8-15.
+    let first8 = _mm512_setr_epi32(0, 16, 0, 17, 0, 18, 0, 19, 0, 20, 0, 21, 0, 22, 0, 23);
+    let last8 = _mm512_setr_epi32(0, 24, 0, 25, 0, 26, 0, 27, 0, 28, 0, 29, 0, 30, 0, 31);
+    let ps = |c: &[f32; 16]| -> __m512 {
+        // SAFETY: sixteen floats.
+        unsafe { _mm512_loadu_ps(c.as_ptr()) }
+    };
+    let epi32 = |c: &[u32; 16]| -> __m512i {
+        // SAFETY: sixteen 32-bit integers.
+        unsafe { _mm512_loadu_epi32(c.as_ptr().cast()) }
+    };
+    let epi64 = |c: &[u64]| -> __m512i {
+        // SAFETY: called on halves of sixteen 64-bit integers: eight.
+        unsafe { _mm512_loadu_epi64(c.as_ptr().cast()) }
+    };
+    // Sixteen lanes of a 64-bit test, from its two halves.
+    let join = |lo: u8, hi: u8| u16::from(lo) | u16::from(hi) << 8;
+    let le = |a: __m512, b: __m512| _mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b);
+    let out = row.as_mut_ptr().cast::<i32>();
+    let mut k = 0usize;
+    // The sections after `a`: the rest of its block, then the whole later blocks.
+    let mut lanes = 0xffffu16.checked_shl(la as u32 + 1).unwrap_or(0);
+    for blk in &blocks[a / 16..m.div_ceil(16)] {
+        // Box overlap (ordered compares: false for the NaN padding), each independent of the
+        // others: chained through masks they would wait on one another.
+        let x = le(ps(&blk.lo[0]), hi_a[0]) & le(lo_a[0], ps(&blk.hi[0]));
+        let y = le(ps(&blk.lo[1]), hi_a[1]) & le(lo_a[1], ps(&blk.hi[1]));
+        let z = le(ps(&blk.lo[2]), hi_a[2]) & le(lo_a[2], ps(&blk.hi[2]));
+        // Not neighbours on one skeleton: another skeleton, or segments more than `skip` apart
+        // (|s_a - s_b| as max - min, unsigned).
+        let segs = epi32(&blk.seg);
+        let gap = _mm512_sub_epi32(_mm512_max_epu32(segs, seg_a), _mm512_min_epu32(segs, seg_a));
+        let apart =
+            _mm512_cmpneq_epu32_mask(epi32(&blk.skel), skel_a) | _mm512_cmpgt_epu32_mask(gap, skip);
+        let hit = x & y & z & apart & lanes;
+        lanes = 0xffff;
+        // Owner: the bit sets share nothing.
+        let (e0, e1) = (epi64(&blk.earlier[..8]), epi64(&blk.earlier[8..]));
+        let here = join(
+            _mm512_testn_epi64_mask(e0, earlier_a),
+            _mm512_testn_epi64_mask(e1, earlier_a),
+        );
+        if special {
+            // Undecided: they share only the outside bit, or one cover is too long to be
+            // described.
+            let no_window = join(
+                _mm512_testn_epi64_mask(e0, window_a),
+                _mm512_testn_epi64_mask(e1, window_a),
+            );
+            let unknown_b = join(
+                _mm512_test_epi64_mask(e0, unknown),
+                _mm512_test_epi64_mask(e1, unknown),
+            );
+            if hit & !here & (no_window | unknown_b | unknown_a) != 0 {
+                return None;
+            }
+        }
+        let keep = hit & here;
+        // The kept entries, packed to the low lanes in order, paired with `ent_a`.
+        let kept = _mm512_maskz_compress_epi32(keep, epi32(&blk.ents));
+        // SAFETY: the `k` pairs kept so far came from the sections between `a` and this block,
+        // so `k + 16 <= m - a - 1 + 16 <= row.len()` (asserted above).
+        unsafe {
+            _mm512_storeu_epi32(
+                out.add(2 * k),
+                _mm512_permutex2var_epi32(ent_a, first8, kept),
+            );
+            _mm512_storeu_epi32(
+                out.add(2 * k + 16),
+                _mm512_permutex2var_epi32(ent_a, last8, kept),
+            );
+        }
+        k += keep.count_ones() as usize;
+    }
+    Some(k)
+}
+
 /// Whether the processor supports AVX2 (checked once by the standard library, then cached).
 #[cfg(target_arch = "x86_64")]
 fn has_avx2() -> bool {
@@ -1151,37 +1483,46 @@ mod tests {
                 p = q;
             }
         }
+        // And a few long, thick sections across the box: covers with earlier cells outside the
+        // window and covers too long to be described, whose owners the key lists decide.
+        for s in 0..24u32 {
+            let p = Point::new(lcg(&mut z), lcg(&mut z), lcg(&mut z)) * 0.04;
+            let q = Point::new(lcg(&mut z), lcg(&mut z), lcg(&mut z)) * 0.04;
+            let radius = if s % 3 == 0 { 0.004 } else { 0.001 };
+            sections.push(Section {
+                skeleton: 400 + s,
+                segment: 0,
+                shape: Ssv::Line(Lss::new(p, q, radius)),
+            });
+        }
         let mut grid = crate::Grid::new(GridConfig::default());
         grid.rebuild(&sections).unwrap();
+        let bits = &grid.entry_earlier[..grid.entry_count()];
+        assert!(bits.iter().any(|b| b & UNKNOWN != 0));
+        assert!(bits.iter().any(|b| b & (OUTSIDE | UNKNOWN) == OUTSIDE));
+        let kernels = [Kernel::Base, Kernel::Avx2, Kernel::Avx512];
         for exact in [false, true] {
-            let (mut base, mut wide) = (PairSet::new(), PairSet::new());
-            grid.enumerate_pairs_with(
-                &mut base,
-                Report {
-                    exact,
-                    ranked: false,
-                },
-                false,
-            );
-            grid.enumerate_pairs_with(
-                &mut wide,
-                Report {
-                    exact,
-                    ranked: false,
-                },
-                true,
-            );
+            let report = Report {
+                exact,
+                ranked: false,
+            };
+            let mut base = PairSet::new();
+            grid.enumerate_pairs_with(&mut base, report, Kernel::Base);
             assert!(base.len() > 1000, "{}", base.len());
-            assert_eq!(base.to_vec(), wide.to_vec());
+            for kernel in kernels {
+                let mut other = PairSet::new();
+                grid.enumerate_pairs_with(&mut other, report, kernel);
+                assert_eq!(base.to_vec(), other.to_vec(), "{kernel:?}");
+            }
         }
-        // By rank: the same pairs in the same order, with either kernel.
+        // By rank: the same pairs in the same order, with every kernel.
         let order = grid.search_order();
         let mut sorted = order.to_vec();
         sorted.sort_unstable();
         assert!(sorted.iter().enumerate().all(|(k, &i)| k == i as usize));
         let mut plain = PairSet::new();
         grid.overlapping_pairs(&mut plain);
-        for avx2 in [false, true] {
+        for kernel in kernels {
             let mut ranked = PairSet::new();
             grid.enumerate_pairs_with(
                 &mut ranked,
@@ -1189,7 +1530,7 @@ mod tests {
                     exact: true,
                     ranked: true,
                 },
-                avx2,
+                kernel,
             );
             let back: Vec<[u32; 2]> = ranked
                 .iter()
