@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use crate::grid::{Grid, unpack3};
+use crate::grid::{Grid, PREFETCH, prefetch, unpack3};
 use crate::{Real, Ssv};
 
 /// Work of one parallel task, in pair tests: a cell of `m` sections counts `m * m` plus
@@ -492,6 +492,11 @@ impl Grid {
         }
         let mut any = 0u64;
         for (e, (&it, &ea)) in ents.iter().zip(earlier).enumerate() {
+            // A cell's sections are near one another in the search's order, but not all in
+            // one run (those whose first cell is an earlier one): fetch ahead.
+            if let Some(&ahead) = ents.get(e + PREFETCH) {
+                prefetch(pk.boxes.as_ptr().wrapping_add(ahead as usize));
+            }
             let (blk, l) = (&mut blocks[e / 16], e % 16);
             let b = &pk.boxes[it as usize];
             for k in 0..3 {
@@ -1166,7 +1171,9 @@ fn row_avx512(
             }
         }
         let keep = hit & here;
-        // The kept entries, packed to the low lanes in order, paired with `ent_a`.
+        let n = keep.count_ones() as usize;
+        // The kept entries, packed to the low lanes in order, paired with `ent_a`: eight pairs
+        // per store, the second store only for more than eight (rare, and well predicted).
         let kept = _mm512_maskz_compress_epi32(keep, epi32(&blk.ents));
         // SAFETY: the `k` pairs kept so far came from the sections between `a` and this block,
         // so `k + 16 <= m - a - 1 + 16 <= row.len()` (asserted above).
@@ -1175,12 +1182,14 @@ fn row_avx512(
                 out.add(2 * k),
                 _mm512_permutex2var_epi32(ent_a, first8, kept),
             );
-            _mm512_storeu_epi32(
-                out.add(2 * k + 16),
-                _mm512_permutex2var_epi32(ent_a, last8, kept),
-            );
+            if n > 8 {
+                _mm512_storeu_epi32(
+                    out.add(2 * k + 16),
+                    _mm512_permutex2var_epi32(ent_a, last8, kept),
+                );
+            }
         }
-        k += keep.count_ones() as usize;
+        k += n;
     }
     Some(k)
 }
