@@ -478,12 +478,12 @@ fn push_mask(cl: [i64; 3], mut mask: u64, keys: &mut Vec<u64>, earlier: &mut Vec
 const AXES: [char; 3] = ['x', 'y', 'z'];
 
 /// How far ahead the build's scattered reads and writes fetch their cache lines (in items).
-pub(crate) const PREFETCH: usize = 16;
+const PREFETCH: usize = 16;
 
 /// Asks the processor to fetch the cache line at `p` (nothing off x86-64). A hint only: it
 /// reads nothing the program sees and never faults, whatever the address.
 #[inline(always)]
-pub(crate) fn prefetch<T>(p: *const T) {
+fn prefetch<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
     #[allow(unsafe_code)]
     // SAFETY: a prefetch neither reads memory the program sees nor faults on any address.
