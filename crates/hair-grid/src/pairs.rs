@@ -372,7 +372,7 @@ impl Grid {
         for c in cells {
             self.cell_pairs::<AVX, WIDE>(c, chunk, report);
         }
-        self.finish::<AVX>(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, report);
+        self.finish::<AVX, WIDE>(&chunk.cand[..chunk.n_cand], &mut chunk.pairs, report);
         chunk.n_cand = 0;
     }
 
@@ -456,7 +456,7 @@ impl Grid {
             let k = self.row::<AVX>(key, &view, cols, &head, a, row);
             nc += k;
             if nc >= BATCH {
-                self.finish::<AVX>(&cand[..nc], pairs, report);
+                self.finish::<AVX, false>(&cand[..nc], pairs, report);
                 nc = 0;
             }
         }
@@ -510,7 +510,7 @@ impl Grid {
                 .unwrap_or_else(|| self.row_blocks(key, blocks, m, a, row));
             nc += k;
             if nc >= BATCH {
-                self.finish::<true>(&cand[..nc], pairs, report);
+                self.finish::<true, true>(&cand[..nc], pairs, report);
                 nc = 0;
             }
         }
@@ -594,7 +594,7 @@ impl Grid {
 
     /// Moves the buffered candidates to the output: as they are, or through the exact test.
     #[inline(always)]
-    fn finish<const AVX: bool>(
+    fn finish<const AVX: bool, const WIDE: bool>(
         &self,
         cand: &[[u32; 2]],
         pairs: &mut Vec<[u32; 2]>,
@@ -616,20 +616,22 @@ impl Grid {
             return;
         }
         let margin = self.config.margin;
+        // Sixteen lanes with AVX-512, else eight.
+        let width = if WIDE { 2 * LANES } else { LANES };
         // The lane tests of up to `BATCH` candidates first, then their kept pairs: with no
         // branch between them, one block's chain of divisions and square root overlaps the next
         // ones' instead of waiting behind a mispredicted push loop.
         for part in cand.chunks(BATCH) {
-            let mut blocks = part.chunks_exact(LANES);
+            let mut blocks = part.chunks_exact(width);
             let n_blocks = blocks.len();
-            let mut keep = [0u8; BATCH / LANES];
+            let mut keep = [0u16; BATCH / LANES];
             for (k, block) in keep.iter_mut().zip(&mut blocks) {
-                *k = self.exact_lanes::<AVX>(block, margin, 0xff) as u8;
+                *k = self.exact_lanes::<AVX, WIDE>(block, margin, (1 << width) - 1) as u16;
             }
             for (b, &k) in keep[..n_blocks].iter().enumerate() {
                 let mut k = k;
                 while k != 0 {
-                    pairs.push(orig(part[LANES * b + k.trailing_zeros() as usize]));
+                    pairs.push(orig(part[width * b + k.trailing_zeros() as usize]));
                     k &= k - 1;
                 }
             }
@@ -637,9 +639,10 @@ impl Grid {
             // and masked: the scalar test reads the shapes in section order, a cache miss each.
             let rest = blocks.remainder();
             if let Some(&last) = rest.last() {
-                let mut block = [last; LANES];
+                let mut block = [last; 2 * LANES];
                 block[..rest.len()].copy_from_slice(rest);
-                let mut k = self.exact_lanes::<AVX>(&block, margin, (1 << rest.len()) - 1);
+                let block = &block[..width];
+                let mut k = self.exact_lanes::<AVX, WIDE>(block, margin, (1 << rest.len()) - 1);
                 while k != 0 {
                     pairs.push(orig(rest[k.trailing_zeros() as usize]));
                     k &= k - 1;
@@ -656,10 +659,19 @@ impl Grid {
     /// `distance <= margin`.
     #[inline(always)]
     #[allow(unsafe_code)]
-    fn exact_lanes<const AVX: bool>(&self, block: &[[u32; 2]], margin: Real, lanes: u32) -> u32 {
+    fn exact_lanes<const AVX: bool, const WIDE: bool>(
+        &self,
+        block: &[[u32; 2]],
+        margin: Real,
+        lanes: u32,
+    ) -> u32 {
         let lines = &self.packed.lines;
         #[cfg(target_arch = "x86_64")]
-        let (mut sure, mut open) = if AVX {
+        let (mut sure, mut open) = if WIDE {
+            // SAFETY: `WIDE` is true only in code reached from `Grid::task_avx512`, which runs
+            // only when `Kernel::best` found AVX-512F on this processor.
+            unsafe { lanes_decide_avx512(lines, block, margin) }
+        } else if AVX {
             // SAFETY: `AVX` is true only in code reached from `Grid::task_avx2`, which runs only
             // when `has_avx2` found AVX2 on this processor.
             unsafe { lanes_decide_avx2(lines, block, margin) }
@@ -1046,6 +1058,128 @@ impl Kernel {
     }
 }
 
+/// The 16 x 8 transpose of sixteen rows of eight floats: lane `l` of output `k` is field `k` of
+/// row `l`. Register `i` takes rows `i` and `i + 8`, one per 256-bit half, and each half is
+/// transposed as eight by eight ([`transpose8`]'s steps, the last as a two-register pick).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn transpose16x8(rows: [std::arch::x86_64::__m256; 16]) -> [std::arch::x86_64::__m512; 8] {
+    use std::arch::x86_64::{
+        __m512, _mm256_castps_pd, _mm512_castpd_ps, _mm512_castpd256_pd512, _mm512_insertf64x4,
+        _mm512_permutex2var_ps, _mm512_setr_epi32, _mm512_shuffle_ps, _mm512_unpackhi_ps,
+        _mm512_unpacklo_ps,
+    };
+    let z: [__m512; 8] = std::array::from_fn(|i| {
+        _mm512_castpd_ps(_mm512_insertf64x4::<1>(
+            _mm512_castpd256_pd512(_mm256_castps_pd(rows[i])),
+            _mm256_castps_pd(rows[i + 8]),
+        ))
+    });
+    let t = [
+        _mm512_unpacklo_ps(z[0], z[1]),
+        _mm512_unpackhi_ps(z[0], z[1]),
+        _mm512_unpacklo_ps(z[2], z[3]),
+        _mm512_unpackhi_ps(z[2], z[3]),
+        _mm512_unpacklo_ps(z[4], z[5]),
+        _mm512_unpackhi_ps(z[4], z[5]),
+        _mm512_unpacklo_ps(z[6], z[7]),
+        _mm512_unpackhi_ps(z[6], z[7]),
+    ];
+    let s = [
+        _mm512_shuffle_ps::<0x44>(t[0], t[2]),
+        _mm512_shuffle_ps::<0xee>(t[0], t[2]),
+        _mm512_shuffle_ps::<0x44>(t[1], t[3]),
+        _mm512_shuffle_ps::<0xee>(t[1], t[3]),
+        _mm512_shuffle_ps::<0x44>(t[4], t[6]),
+        _mm512_shuffle_ps::<0xee>(t[4], t[6]),
+        _mm512_shuffle_ps::<0x44>(t[5], t[7]),
+        _mm512_shuffle_ps::<0xee>(t[5], t[7]),
+    ];
+    // Lane picks that pair the 128-bit quarters of two registers: the low or the high quarter
+    // of each half (what `_mm256_permute2f128_ps` does in the eight-wide transpose).
+    let low = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+    let high = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
+    std::array::from_fn(|k| {
+        let pick = if k < 4 { low } else { high };
+        _mm512_permutex2var_ps(s[k % 4], pick, s[k % 4 + 4])
+    })
+}
+
+/// [`lanes_decide_avx2`] on sixteen candidates with AVX-512: the same operations in the same
+/// order on every lane, so the same values and decisions.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+#[allow(unsafe_code)]
+fn lanes_decide_avx512(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) {
+    use std::arch::x86_64::{
+        __m256, __m512, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_loadu_ps, _mm512_add_ps, _mm512_cmp_ps_mask,
+        _mm512_div_ps, _mm512_mask_blend_ps, _mm512_max_ps, _mm512_min_ps, _mm512_mul_ps,
+        _mm512_set1_ps, _mm512_setzero_ps, _mm512_sqrt_ps, _mm512_sub_ps,
+    };
+    assert!(block.len() >= 2 * LANES);
+    let load = |i: u32| -> __m256 {
+        let line: &Line = &lines[i as usize];
+        // SAFETY: a `Line` is eight contiguous floats.
+        unsafe { _mm256_loadu_ps(line.as_ptr()) }
+    };
+    let p = transpose16x8(std::array::from_fn(|l| load(block[l][0])));
+    let q = transpose16x8(std::array::from_fn(|l| load(block[l][1])));
+    let (add, sub, mul, div) = (_mm512_add_ps, _mm512_sub_ps, _mm512_mul_ps, _mm512_div_ps);
+    let zero = _mm512_setzero_ps();
+    let one = _mm512_set1_ps(1.0);
+    // As in the AVX2 kernel: `max(0, x)` keeps `x` when it is NaN or -0.0 (the second operand
+    // wins ties and NaN), as `clamp` does.
+    let clamp01 = |x: __m512| _mm512_min_ps(one, _mm512_max_ps(zero, x));
+    let gt = |a: __m512, b: __m512| _mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b);
+    let dot = |a: [__m512; 3], b: [__m512; 3]| {
+        add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+    };
+    let cross = |a: [__m512; 3], b: [__m512; 3]| {
+        [
+            sub(mul(a[1], b[2]), mul(a[2], b[1])),
+            sub(mul(a[2], b[0]), mul(a[0], b[2])),
+            sub(mul(a[0], b[1]), mul(a[1], b[0])),
+        ]
+    };
+    let u = [p[3], p[4], p[5]];
+    let v = [q[3], q[4], q[5]];
+    let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
+    let a = dot(u, u);
+    let e = dot(v, v);
+    let b = dot(u, v);
+    let c = dot(u, r);
+    let f = dot(v, r);
+    let denom = sub(mul(a, e), mul(b, b));
+    let classic = div(sub(mul(b, f), mul(c, e)), denom);
+    let n = cross(u, v);
+    let m = cross(v, r);
+    let nn = dot(n, n);
+    let crossed = div(dot(n, m), nn);
+    // mask_blend(k, x, y) takes `y` where the mask is set.
+    let s0 = _mm512_mask_blend_ps(gt(nn, zero), zero, crossed);
+    let s0 = _mm512_mask_blend_ps(
+        gt(denom, mul(mul(_mm512_set1_ps(0.0625), a), e)),
+        s0,
+        classic,
+    );
+    let s0 = clamp01(s0);
+    let inv_e = _mm512_mask_blend_ps(gt(e, zero), zero, div(one, e));
+    let inv_a = _mm512_mask_blend_ps(gt(a, zero), zero, div(one, a));
+    let t = clamp01(mul(add(mul(b, s0), f), inv_e));
+    let s = clamp01(mul(sub(mul(b, t), c), inv_a));
+    let w = [0, 1, 2].map(|k| sub(add(r[k], mul(u[k], s)), mul(v[k], t)));
+    let d = sub(_mm512_sqrt_ps(dot(w, w)), add(p[6], q[6]));
+    // `p.max(q)` for the scales, which are never NaN (at least 1).
+    let band = mul(_mm512_set1_ps(1e-5), _mm512_max_ps(p[7], q[7]));
+    let margin = _mm512_set1_ps(margin);
+    let inside = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d, sub(margin, band));
+    let outside = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(d, add(margin, band));
+    let sure = u32::from(inside);
+    (sure, !(sure | u32::from(outside)) & 0xffff)
+}
+
 /// Fills `blocks` with the sections `ents` (internal indices) of a cell and their earlier-cell
 /// bit sets, sixteen per block, lanes past the last section with NaN boxes; returns the union
 /// of the bit sets. A [`PBox`] is eight 32-bit fields in the order of a block's first eight
@@ -1057,12 +1191,9 @@ impl Kernel {
 #[allow(unsafe_code)]
 fn gather_avx512(boxes: &[PBox], ents: &[u32], earlier: &[u64], blocks: &mut [Block16]) -> u64 {
     use std::arch::x86_64::{
-        __m256, __m512, _mm256_castps_pd, _mm256_loadu_ps, _mm512_castpd_ps,
-        _mm512_castpd256_pd512, _mm512_insertf64x4,
-        _mm512_mask_blend_ps, _mm512_maskz_loadu_epi32, _mm512_maskz_loadu_epi64,
-        _mm512_or_si512, _mm512_permutex2var_ps, _mm512_reduce_or_epi64, _mm512_set1_ps,
-        _mm512_setr_epi32, _mm512_setzero_si512, _mm512_shuffle_ps, _mm512_storeu_epi32,
-        _mm512_storeu_epi64, _mm512_storeu_ps, _mm512_unpackhi_ps, _mm512_unpacklo_ps,
+        __m256, _mm256_loadu_ps, _mm512_mask_blend_ps, _mm512_maskz_loadu_epi32,
+        _mm512_maskz_loadu_epi64, _mm512_or_si512, _mm512_reduce_or_epi64, _mm512_set1_ps,
+        _mm512_setzero_si512, _mm512_storeu_epi32, _mm512_storeu_epi64, _mm512_storeu_ps,
     };
     let m = ents.len();
     assert!(m > 0 && earlier.len() == m && blocks.len() == m.div_ceil(16));
@@ -1072,51 +1203,20 @@ fn gather_avx512(boxes: &[PBox], ents: &[u32], earlier: &[u64], blocks: &mut [Bl
         // SAFETY: `i < boxes.len()` (asserted above), and a `PBox` is eight 32-bit fields.
         unsafe { _mm256_loadu_ps(boxes.as_ptr().add(i as usize).cast()) }
     };
-    // Lane picks that pair the 128-bit quarters of two registers: low or high quarter of each
-    // half (the step `_mm256_permute2f128_ps` does in an eight-wide transpose).
-    let low = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
-    let high = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
     let nan = _mm512_set1_ps(f32::NAN);
     let mut any = _mm512_setzero_si512();
     for (b, blk) in blocks.iter_mut().enumerate() {
         let first = 16 * b;
         let count = (m - first).min(16);
-        let valid: u16 = if count == 16 { 0xffff } else { (1 << count) - 1 };
+        let valid: u16 = if count == 16 {
+            0xffff
+        } else {
+            (1 << count) - 1
+        };
         // Rows past the cell's end repeat its first section; their lanes are masked below.
         let at = |l: usize| if l < count { ents[first + l] } else { ents[0] };
-        // Register `i` holds rows `i` and `i + 8`, one per 256-bit half; each half is then
-        // transposed as eight by eight, so that column `k` comes out as lanes 0-15 of output
-        // `k` (rows 0-7, then 8-15).
-        let z: [__m512; 8] = std::array::from_fn(|i| {
-            _mm512_castpd_ps(_mm512_insertf64x4::<1>(
-                _mm512_castpd256_pd512(_mm256_castps_pd(row(at(i)))),
-                _mm256_castps_pd(row(at(i + 8))),
-            ))
-        });
-        let t = [
-            _mm512_unpacklo_ps(z[0], z[1]),
-            _mm512_unpackhi_ps(z[0], z[1]),
-            _mm512_unpacklo_ps(z[2], z[3]),
-            _mm512_unpackhi_ps(z[2], z[3]),
-            _mm512_unpacklo_ps(z[4], z[5]),
-            _mm512_unpackhi_ps(z[4], z[5]),
-            _mm512_unpacklo_ps(z[6], z[7]),
-            _mm512_unpackhi_ps(z[6], z[7]),
-        ];
-        let s = [
-            _mm512_shuffle_ps::<0x44>(t[0], t[2]),
-            _mm512_shuffle_ps::<0xee>(t[0], t[2]),
-            _mm512_shuffle_ps::<0x44>(t[1], t[3]),
-            _mm512_shuffle_ps::<0xee>(t[1], t[3]),
-            _mm512_shuffle_ps::<0x44>(t[4], t[6]),
-            _mm512_shuffle_ps::<0xee>(t[4], t[6]),
-            _mm512_shuffle_ps::<0x44>(t[5], t[7]),
-            _mm512_shuffle_ps::<0xee>(t[5], t[7]),
-        ];
-        let cols: [__m512; 8] = std::array::from_fn(|k| {
-            let pick = if k < 4 { low } else { high };
-            _mm512_permutex2var_ps(s[k % 4], pick, s[k % 4 + 4])
-        });
+        let z: [__m256; 16] = std::array::from_fn(|i| row(at(i)));
+        let cols = transpose16x8(z);
         let base = (blk as *mut Block16).cast::<f32>();
         let ents_at = ents.as_ptr().wrapping_add(first);
         let earlier_at = earlier.as_ptr().wrapping_add(first);
@@ -1138,7 +1238,8 @@ fn gather_avx512(boxes: &[PBox], ents: &[u32], earlier: &[u64], blocks: &mut [Bl
                 _mm512_maskz_loadu_epi32(valid, ents_at.cast()),
             );
             let e0 = _mm512_maskz_loadu_epi64(valid as u8, earlier_at.cast());
-            let e1 = _mm512_maskz_loadu_epi64((valid >> 8) as u8, earlier_at.wrapping_add(8).cast());
+            let e1 =
+                _mm512_maskz_loadu_epi64((valid >> 8) as u8, earlier_at.wrapping_add(8).cast());
             _mm512_storeu_epi64(blk.earlier.as_mut_ptr().cast(), e0);
             _mm512_storeu_epi64(blk.earlier.as_mut_ptr().add(8).cast(), e1);
             any = _mm512_or_si512(any, _mm512_or_si512(e0, e1));
@@ -1526,6 +1627,8 @@ mod tests {
             shape(l).distance(&shape(m))
         };
         let mut decided = 0;
+        let mut previous = vec![[0u32, 1u32]; LANES];
+        let mut wide16 = 0;
         for _ in 0..500 {
             let block: Vec<[u32; 2]> = (0..LANES)
                 .map(|_| [(lcg(&mut z) * 64.0) as u32, (lcg(&mut z) * 64.0) as u32])
@@ -1549,6 +1652,22 @@ mod tests {
                 let wide = unsafe { lanes_decide_avx2(&lines, &block, margin) };
                 assert_eq!(wide, (sure, open));
             }
+            // Sixteen lanes: this block, then the previous one.
+            #[cfg(target_arch = "x86_64")]
+            if Kernel::best() == Kernel::Avx512 {
+                let pair: Vec<[u32; 2]> = block.iter().chain(&previous).copied().collect();
+                #[allow(unsafe_code)]
+                // SAFETY: AVX-512F was found on this processor.
+                let wide = unsafe { lanes_decide_avx512(&lines, &pair, margin) };
+                let (sure_p, open_p) = lanes_decide(&lines, &previous, margin);
+                assert_eq!(wide, (sure | sure_p << 8, open | open_p << 8));
+                wide16 += 1;
+            }
+            previous = block;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if Kernel::best() == Kernel::Avx512 {
+            assert_eq!(wide16, 500);
         }
         assert!(decided > 3000, "{decided}");
     }
