@@ -48,7 +48,7 @@ pub(crate) fn floor_small(v: f64) -> i64 {
 /// Direction components below this (in cells, over the whole segment) count as zero in the slab
 /// tests: the segment then strays from the tested line by at most this, far below the cover
 /// slack the callers add (1e-3 cell), and the reciprocal stays finite.
-const TINY: f64 = 1e-12;
+pub(crate) const TINY: f64 = 1e-12;
 
 /// The parameters `t` in `[t0, t1]` where `p + t d` lies in `[lo, hi]`, given `inv = 1 / d` (0
 /// when `|d| <= TINY`). A multiplication by the reciprocal instead of two divisions per slab: the

@@ -349,6 +349,156 @@ fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64;
     })
 }
 
+/// A short cover ([`short_line`]'s result) for up to eight sections.
+type Covers8 = [Option<([i64; 3], [i64; 3], u64)>; 8];
+
+/// [`short_line`] for eight sections at once with AVX-512, for the sections whose cover lies
+/// within 2 x 2 x 2 cells (most hair sections): the same expressions, lane by lane, so the
+/// same ranges and masks. Every other section (not an LSS, outside the lattice, a negative or
+/// NaN radius, a longer range) gets `None`, for the scalar path to cover or reject. The
+/// per-axis cases of [`cover::small_mask`] are all computed and selected: which one applies is
+/// as likely one way as the other, and in the scalar loop their branches mispredict.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+#[allow(unsafe_code)]
+fn small_covers_avx512(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
+    use std::arch::x86_64::{
+        __m512d, __m512i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm512_abs_pd,
+        _mm512_add_epi64, _mm512_add_pd, _mm512_castpd_si512, _mm512_cmp_pd_mask,
+        _mm512_cmpeq_epi64_mask, _mm512_cmple_epi64_mask, _mm512_cvtps_pd, _mm512_div_pd,
+        _mm512_mask_blend_pd, _mm512_mask_or_epi64, _mm512_mask_sub_epi64, _mm512_max_pd,
+        _mm512_min_pd, _mm512_mul_pd, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_pd,
+        _mm512_setzero_si512, _mm512_storeu_epi64, _mm512_sub_epi64, _mm512_sub_pd,
+    };
+    let mut out: Covers8 = [None; 8];
+    // The sections' ends and radii by lane; a lane that is not an LSS keeps zeros and is
+    // dropped below.
+    let mut f = [[0.0f32; 8]; 7];
+    let mut line = 0u8;
+    for (l, s) in secs.iter().take(8).enumerate() {
+        if let Ssv::Line(ln) = &s.shape {
+            for k in 0..3 {
+                f[k][l] = ln.a[k];
+                f[3 + k][l] = ln.b[k];
+            }
+            f[6][l] = ln.radius;
+            line |= 1 << l;
+        }
+    }
+    let wide = |c: &[f32; 8]| -> __m512d {
+        // SAFETY: eight floats.
+        _mm512_cvtps_pd(unsafe { std::arch::x86_64::_mm256_loadu_ps(c.as_ptr()) })
+    };
+    let inv_v = _mm512_set1_pd(inv);
+    let va: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[k]), inv_v));
+    let vb: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[3 + k]), inv_v));
+    let radius = wide(&f[6]);
+    let r = _mm512_add_pd(
+        _mm512_mul_pd(_mm512_add_pd(radius, _mm512_set1_pd(grow)), inv_v),
+        _mm512_set1_pd(EPS_CELLS),
+    );
+    let zero = _mm512_setzero_pd();
+    let one = _mm512_set1_pd(1.0);
+    let half = _mm512_set1_pd(LATTICE_HALF as f64);
+    // Not negative (NaN fails too, through `r` below).
+    let mut ok = line & _mm512_cmp_pd_mask::<_CMP_GE_OQ>(radius, zero);
+    // `floor_small`: the floor as an integer and as a float (exact: small integers).
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    let magic = _mm512_set1_pd(MAGIC);
+    let magic_bits = _mm512_set1_epi64(MAGIC.to_bits() as i64);
+    let one_i = _mm512_set1_epi64(1);
+    let floor = |v: __m512d| -> (__m512i, __m512d) {
+        let sum = _mm512_add_pd(v, magic);
+        let back = _mm512_sub_pd(sum, magic);
+        let over = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(back, v);
+        let k = _mm512_sub_epi64(_mm512_castpd_si512(sum), magic_bits);
+        let k = _mm512_mask_sub_epi64(k, over, k, one_i);
+        (
+            k,
+            _mm512_mask_blend_pd(over, back, _mm512_sub_pd(back, one)),
+        )
+    };
+    let mut cl = [_mm512_setzero_si512(); 3];
+    let mut ch = [_mm512_setzero_si512(); 3];
+    let mut axes = [[zero; 4]; 3];
+    for k in 0..3 {
+        let (a, b) = (va[k], vb[k]);
+        // `if a < b { (a, b) } else { (b, a) }`.
+        let (mn, mx) = (_mm512_min_pd(a, b), _mm512_max_pd(b, a));
+        let (lo, hi) = (_mm512_sub_pd(mn, r), _mm512_add_pd(mx, r));
+        ok &= _mm512_cmp_pd_mask::<_CMP_GE_OQ>(lo, _mm512_sub_pd(zero, half))
+            & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(hi, half);
+        let (lo_i, lo_f) = floor(lo);
+        let (hi_i, _) = floor(hi);
+        cl[k] = lo_i;
+        ch[k] = hi_i;
+        let n = _mm512_add_epi64(_mm512_sub_epi64(hi_i, lo_i), one_i);
+        // At most two cells along every axis.
+        ok &= _mm512_cmple_epi64_mask(n, _mm512_set1_epi64(2));
+        let single = _mm512_cmpeq_epi64_mask(n, one_i);
+        // `cover::small_mask`'s bounds of the axis, every case.
+        let d = _mm512_sub_pd(b, a);
+        let inv_d = _mm512_div_pd(one, d);
+        let base = _mm512_sub_pd(lo_f, a);
+        let up = _mm512_mul_pd(_mm512_add_pd(_mm512_add_pd(base, one), r), inv_d);
+        let down = _mm512_mul_pd(_mm512_sub_pd(_mm512_add_pd(base, one), r), inv_d);
+        let rising = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d, zero);
+        let sloped = [
+            _mm512_mask_blend_pd(rising, _mm512_max_pd(up, zero), zero),
+            _mm512_mask_blend_pd(rising, one, _mm512_min_pd(up, one)),
+            _mm512_mask_blend_pd(rising, zero, _mm512_max_pd(down, zero)),
+            _mm512_mask_blend_pd(rising, _mm512_min_pd(down, one), one),
+        ];
+        let upper = |f: __m512d| {
+            let inside = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(a, _mm512_sub_pd(f, r))
+                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(a, _mm512_add_pd(_mm512_add_pd(f, one), r));
+            _mm512_mask_blend_pd(inside, _mm512_set1_pd(-1.0), one)
+        };
+        let flat = [zero, upper(lo_f), zero, upper(_mm512_add_pd(lo_f, one))];
+        let slanted =
+            _mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(d), _mm512_set1_pd(cover::TINY));
+        let one_cell = [zero, one, _mm512_set1_pd(2.0), _mm512_set1_pd(-1.0)];
+        axes[k] = std::array::from_fn(|j| {
+            let along = _mm512_mask_blend_pd(slanted, flat[j], sloped[j]);
+            _mm512_mask_blend_pd(single, along, one_cell[j])
+        });
+    }
+    let [x, y, z] = axes;
+    let mut mask = _mm512_setzero_si512();
+    for i in 0..2 {
+        for j in 0..2 {
+            let y0 = _mm512_max_pd(y[2 * j], x[2 * i]);
+            let y1 = _mm512_min_pd(y[2 * j + 1], x[2 * i + 1]);
+            for k in 0..2 {
+                let keep = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(
+                    _mm512_max_pd(z[2 * k], y0),
+                    _mm512_min_pd(z[2 * k + 1], y1),
+                );
+                let bit = _mm512_set1_epi64(1 << (4 * i + 2 * j + k));
+                mask = _mm512_mask_or_epi64(mask, keep, mask, bit);
+            }
+        }
+    }
+    let lanes = |v: __m512i| -> [i64; 8] {
+        let mut t = [0i64; 8];
+        // SAFETY: eight 64-bit integers.
+        unsafe { _mm512_storeu_epi64(t.as_mut_ptr(), v) };
+        t
+    };
+    let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
+    for (l, o) in out.iter_mut().enumerate().take(secs.len().min(8)) {
+        if ok & (1 << l) != 0 {
+            *o = Some((
+                [cl[0][l], cl[1][l], cl[2][l]],
+                [ch[0][l], ch[1][l], ch[2][l]],
+                SMALL | mask[l] as u64,
+            ));
+        }
+    }
+    out
+}
+
 /// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
 /// ([`crate::pairs::earlier_bits`]): `25 (dx + 2) + 5 (dy + 2) + (dz + 2)` inside the 5 x 5 x 5
 /// window (`dx >= -2`, `|dy|, |dz| <= 2`), else `OUTSIDE`. Indexed by `49 dx + 7 dy + dz + 171`
@@ -809,6 +959,9 @@ impl Grid {
         self.n_chunks = n_chunks;
         let limit = u64::from(self.config.max_cells_per_item);
         let clip = CellBox::ALL;
+        // Eight short covers at a time where the processor has AVX-512.
+        #[cfg(target_arch = "x86_64")]
+        let wide = std::arch::is_x86_feature_detected!("avx512f");
         if self.recs.len() < sections.len() {
             self.recs.resize(sections.len(), Rec::default());
             self.shapes.resize(sections.len(), sections[0].shape);
@@ -838,10 +991,19 @@ impl Grid {
                 *lo = [i64::MAX; 3];
                 *hi = [i64::MIN; 3];
                 let mut buf = [[0i64; 3]; SHORT];
+                let mut group: Covers8 = [None; 8];
                 for (l, s) in secs.iter().enumerate() {
                     let index = ci * CHUNK + l;
                     if error.is_some() {
                         break;
+                    }
+                    #[cfg(target_arch = "x86_64")]
+                    if wide && l % 8 == 0 {
+                        // SAFETY: `wide` is set only when AVX-512F was found on this processor.
+                        #[allow(unsafe_code)]
+                        {
+                            group = unsafe { small_covers_avx512(&secs[l..], inv, grow) };
+                        }
                     }
                     // Nearly every hair section is a valid LSS with a small cell range: its cover
                     // comes as a mask, from which the keys and earlier-cell bit sets follow
@@ -850,7 +1012,8 @@ impl Grid {
                     // (No popcount on the baseline target: the cells are counted only when the
                     // limit is below the largest short cover.)
                     if let Ssv::Line(ln) = &s.shape
-                        && let Some((cl, ch, mask)) = short_line(ln, inv, grow)
+                        && let Some((cl, ch, mask)) =
+                            group[l % 8].or_else(|| short_line(ln, inv, grow))
                         && (limit >= SHORT as u64
                             || u64::from((mask & !SMALL).count_ones()) <= limit)
                     {
@@ -1358,5 +1521,82 @@ mod tests {
             tested += 1;
         }
         assert!(tested > 10_000, "{tested}");
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_short_covers_at_once_are_the_scalar_ones() {
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            eprintln!("no AVX-512F on this processor: the eight-wide covers are not tested");
+            return;
+        }
+        // Seeded segments of about one cell and of a few, with the cases of `small_mask`: along
+        // a lattice axis, nearly so, ends on cell faces, single points, and bad shapes.
+        let mut z = 5u64;
+        let mut unit = || {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (z >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut wide, mut small) = (0, 0);
+        for n in 0..4_000 {
+            let (inv, grow) = (1.0 + f64::from(unit()), f64::from(unit()) * 0.01);
+            let secs: Vec<Section> = (0..8)
+                .map(|k| {
+                    let case = (n * 8 + k) % 11;
+                    let mut a =
+                        Point::new(unit() * 8.0 - 4.0, unit() * 8.0 - 4.0, unit() * 8.0 - 4.0);
+                    if case == 1 {
+                        a = a.map(|c| c.round());
+                    }
+                    let span = if case == 2 { 3.0 } else { 1.2 };
+                    let mut b =
+                        a + crate::Vector::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * span;
+                    match case {
+                        3 => b[k % 3] = a[k % 3],
+                        4 => b[k % 3] = a[k % 3] + 1e-9,
+                        5 => b = a,
+                        _ => {}
+                    }
+                    let radius = match case {
+                        6 => -0.1,
+                        7 => f32::NAN,
+                        8 => 0.0,
+                        _ => unit() * 0.2,
+                    };
+                    if case == 9 {
+                        b.x = f32::INFINITY;
+                    }
+                    let shape = if case == 10 {
+                        Ssv::Point(hair_ssv::Pss::new(a, radius.abs()))
+                    } else {
+                        Ssv::Line(Lss::new(a, b, radius))
+                    };
+                    Section {
+                        skeleton: 0,
+                        segment: k as u32,
+                        shape,
+                    }
+                })
+                .collect();
+            #[allow(unsafe_code)]
+            // SAFETY: AVX-512F was found above.
+            let group = unsafe { small_covers_avx512(&secs, inv, grow) };
+            for (s, got) in secs.iter().zip(group) {
+                let scalar = match &s.shape {
+                    Ssv::Line(l) => short_line(l, inv, grow),
+                    _ => None,
+                };
+                // Every cover of at most 2 x 2 x 2 cells comes out, exactly as the scalar one.
+                match scalar {
+                    Some((_, _, mask)) if mask & SMALL != 0 => {
+                        assert_eq!(got, scalar, "{s:?}");
+                        small += 1;
+                    }
+                    _ => assert_eq!(got, None, "{s:?}"),
+                }
+                wide += usize::from(got.is_some());
+            }
+        }
+        assert!(wide > 10_000 && small == wide, "{wide} {small}");
     }
 }
