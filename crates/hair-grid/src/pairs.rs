@@ -47,9 +47,10 @@ pub(crate) struct PBox {
     pub segment: u32,
 }
 
-/// A section's core for the exact test: `a`, `b - a`, radius, and the largest coordinate
-/// magnitude (at least 1) that scales the rounding band. The radius is NaN for a shape that is
-/// not an LSS (tested by the scalar kernel).
+/// A section's core for the exact test: `a`, `b`, radius, and the largest coordinate magnitude
+/// (at least 1) that scales the rounding band. The radius is NaN for a shape that is not an
+/// LSS (tested by the scalar kernel). The ends are kept as given (the kernels take `b - a`), so
+/// that the LSS is rebuilt exactly from its line when the scalar test must decide.
 pub(crate) type Line = [f32; 8];
 
 /// Section data in the pair search's order (by first cell, then by index).
@@ -233,16 +234,7 @@ pub(crate) fn line_of(shape: &Ssv) -> Line {
                 .iter()
                 .flat_map(|p| p.iter())
                 .fold(1.0f32, |m, c| m.max(c.abs()));
-            [
-                l.a.x,
-                l.a.y,
-                l.a.z,
-                l.b.x - l.a.x,
-                l.b.y - l.a.y,
-                l.b.z - l.a.z,
-                l.radius,
-                scale,
-            ]
+            [l.a.x, l.a.y, l.a.z, l.b.x, l.b.y, l.b.z, l.radius, scale]
         }
         _ => [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f32::NAN, 1.0],
     }
@@ -694,9 +686,31 @@ impl Grid {
     /// Whether the sections of the candidate `[a, b]` (internal indices) are within the margin
     /// by hair-ssv's exact distance, taken from the lower section index to the higher.
     fn within_margin(&self, [a, b]: [u32; 2], margin: Real) -> bool {
-        let (i, j) = (self.packed.order[a as usize], self.packed.order[b as usize]);
-        let (i, j) = (i.min(j) as usize, i.max(j) as usize);
-        self.shape_at(i).distance(self.shape_at(j)) <= margin
+        let order = &self.packed.order;
+        let (a, b) = if order[a as usize] < order[b as usize] {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        // Two LSS are rebuilt from their lines, which sit near each other in the search's
+        // order (the shapes, in the caller's order, would be two cache misses).
+        let lss = |i: u32| {
+            let l = &self.packed.lines[i as usize];
+            (!l[6].is_nan()).then(|| {
+                Ssv::Line(hair_ssv::Lss::new(
+                    crate::Point::new(l[0], l[1], l[2]),
+                    crate::Point::new(l[3], l[4], l[5]),
+                    l[6],
+                ))
+            })
+        };
+        match (lss(a), lss(b)) {
+            (Some(p), Some(q)) => p.distance(&q) <= margin,
+            _ => {
+                let (i, j) = (order[a as usize] as usize, order[b as usize] as usize);
+                self.shape_at(i).distance(self.shape_at(j)) <= margin
+            }
+        }
     }
 
     /// Whether the cell `key`, covered by the sections of internal indices `a` and `b`, is the
@@ -726,7 +740,10 @@ fn lanes_decide(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) 
             q[k][l] = lb[k];
         }
     }
-    let (u, v) = ([p[3], p[4], p[5]], [q[3], q[4], q[5]]);
+    let dir = |e: &[[f32; LANES]; 8], k: usize| -> [f32; LANES] {
+        std::array::from_fn(|l| e[3 + k][l] - e[k][l])
+    };
+    let (u, v) = ([0, 1, 2].map(|k| dir(&p, k)), [0, 1, 2].map(|k| dir(&q, k)));
     let r: [[f32; LANES]; 3] = std::array::from_fn(|k| std::array::from_fn(|l| p[k][l] - q[k][l]));
     let radii: [f32; LANES] = std::array::from_fn(|l| p[6][l] + q[6][l]);
     let d = hair_ssv::lss_lss_lanes(&u, &v, &r, &radii);
@@ -780,8 +797,8 @@ fn lanes_decide_avx2(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, 
             sub(mul(a[0], b[1]), mul(a[1], b[0])),
         ]
     };
-    let u = [p[3], p[4], p[5]];
-    let v = [q[3], q[4], q[5]];
+    let u = [0, 1, 2].map(|k| sub(p[3 + k], p[k]));
+    let v = [0, 1, 2].map(|k| sub(q[3 + k], q[k]));
     let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
     let a = dot(u, u);
     let e = dot(v, v);
@@ -1143,8 +1160,8 @@ fn lanes_decide_avx512(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32
             sub(mul(a[0], b[1]), mul(a[1], b[0])),
         ]
     };
-    let u = [p[3], p[4], p[5]];
-    let v = [q[3], q[4], q[5]];
+    let u = [0, 1, 2].map(|k| sub(p[3 + k], p[k]));
+    let v = [0, 1, 2].map(|k| sub(q[3 + k], q[k]));
     let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
     let a = dot(u, u);
     let e = dot(v, v);
@@ -1607,20 +1624,16 @@ mod tests {
             } else {
                 lcg(z) * 0.5
             };
-            let scale = a
-                .iter()
-                .zip(&u)
-                .flat_map(|(a, u)| [a.abs(), (a + u).abs()])
-                .fold(1.0f32, f32::max);
-            [a[0], a[1], a[2], u[0], u[1], u[2], radius, scale]
+            let b = [0, 1, 2].map(|k| a[k] + u[k]);
+            let scale = a.iter().chain(&b).map(|c| c.abs()).fold(1.0f32, f32::max);
+            [a[0], a[1], a[2], b[0], b[1], b[2], radius, scale]
         };
         let lines: Vec<Line> = (0..64).map(|_| line(&mut z)).collect();
         let scalar = |l: &Line, m: &Line| {
             let shape = |l: &Line| {
-                let a = Point::new(l[0], l[1], l[2]);
                 Ssv::Line(Lss::new(
-                    a,
-                    a + hair_ssv::Vector::new(l[3], l[4], l[5]),
+                    Point::new(l[0], l[1], l[2]),
+                    Point::new(l[3], l[4], l[5]),
                     l[6],
                 ))
             };
