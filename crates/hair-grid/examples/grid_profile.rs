@@ -8,7 +8,8 @@
 //! candidate pairs and the overlapping pairs (in order), so that a change can be checked to leave
 //! them identical. Instruction counts of one rebuild (or one pair search): run it under
 //! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind` with `build 1` and `build 3` (or `pairs`);
-//! half the difference of the two totals is the cost of one. `candidates` times the pair search
+//! half the difference of the two totals is the cost of one (valgrind has no AVX-512: it counts
+//! the AVX2 kernels, and `perf` times the AVX-512 ones). `candidates` times the pair search
 //! without the exact test ([`Grid::candidate_pairs`]), so that the exact test's share is the
 //! difference. With `HAIR_GRID_SECTIONS=FILE` it profiles the sections in `FILE` instead (per
 //! section, little endian: `a`, `b` and the radius as 7 `f32`, then skeleton and segment as 2
