@@ -758,6 +758,59 @@ fn lanes_decide(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, u32) 
     (sure, open)
 }
 
+/// The exact test's arithmetic on lanes of a vector type `$v`: from the transposed cores `$p`
+/// and `$q` (eight registers each: `a`, `b`, radius, scale), the LSS-LSS distances and the
+/// rounding bands, as `(d, band)`. Written once for the AVX2 and AVX-512 kernels, which then
+/// run the same operations in the same order (hair-ssv's segment-segment kernel, lane-wise).
+/// `$gt` compares into a lane mask, and `$select(mask, no, yes)` takes `yes` where it is set.
+#[cfg(target_arch = "x86_64")]
+macro_rules! lss_lanes {
+    ($p:expr, $q:expr, $v:ty, $add:expr, $sub:expr, $mul:expr, $div:expr, $min:expr,
+     $max:expr, $sqrt:expr, $splat:expr, $gt:expr, $select:expr) => {{
+        let (p, q) = ($p, $q);
+        let (add, sub, mul, div) = ($add, $sub, $mul, $div);
+        let zero = $splat(0.0);
+        let one = $splat(1.0);
+        // `x.clamp(0.0, 1.0)` for any `x` but NaN's payload: `max(0, x)` keeps `x` when it is
+        // NaN or -0.0 (the second operand wins ties and NaN), as `clamp` does.
+        let clamp01 = |x: $v| $min(one, $max(zero, x));
+        let dot =
+            |a: [$v; 3], b: [$v; 3]| add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
+        let cross = |a: [$v; 3], b: [$v; 3]| {
+            [
+                sub(mul(a[1], b[2]), mul(a[2], b[1])),
+                sub(mul(a[2], b[0]), mul(a[0], b[2])),
+                sub(mul(a[0], b[1]), mul(a[1], b[0])),
+            ]
+        };
+        let u = [0, 1, 2].map(|k| sub(p[3 + k], p[k]));
+        let v = [0, 1, 2].map(|k| sub(q[3 + k], q[k]));
+        let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
+        let a = dot(u, u);
+        let e = dot(v, v);
+        let b = dot(u, v);
+        let c = dot(u, r);
+        let f = dot(v, r);
+        let denom = sub(mul(a, e), mul(b, b));
+        let classic = div(sub(mul(b, f), mul(c, e)), denom);
+        let n = cross(u, v);
+        let m = cross(v, r);
+        let nn = dot(n, n);
+        let crossed = div(dot(n, m), nn);
+        let s0 = $select($gt(nn, zero), zero, crossed);
+        let s0 = $select($gt(denom, mul(mul($splat(0.0625), a), e)), s0, classic);
+        let s0 = clamp01(s0);
+        let inv_e = $select($gt(e, zero), zero, div(one, e));
+        let inv_a = $select($gt(a, zero), zero, div(one, a));
+        let t = clamp01(mul(add(mul(b, s0), f), inv_e));
+        let s = clamp01(mul(sub(mul(b, t), c), inv_a));
+        let w = [0, 1, 2].map(|k| sub(add(r[k], mul(u[k], s)), mul(v[k], t)));
+        let d = sub($sqrt(dot(w, w)), add(p[6], q[6]));
+        // `p.max(q)` for the scales, which are never NaN (at least 1).
+        (d, mul($splat(1e-5), $max(p[7], q[7])))
+    }};
+}
+
 /// [`lanes_decide`] with AVX2 intrinsics, the same operations in the same order (so the same
 /// values): a core is eight floats, one register, so the eight first cores are loaded whole and
 /// transposed in registers (the second ones the same way) instead of 128 single moves, and the
@@ -770,7 +823,7 @@ fn lanes_decide_avx2(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, 
     use std::arch::x86_64::{
         __m256, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_add_ps, _mm256_blendv_ps, _mm256_cmp_ps,
         _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-        _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_sqrt_ps, _mm256_sub_ps,
+        _mm256_mul_ps, _mm256_set1_ps, _mm256_sqrt_ps, _mm256_sub_ps,
     };
     assert!(block.len() >= LANES);
     let load = |i: u32| -> __m256 {
@@ -780,53 +833,23 @@ fn lanes_decide_avx2(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32, 
     };
     let p = transpose8(std::array::from_fn(|l| load(block[l][0])));
     let q = transpose8(std::array::from_fn(|l| load(block[l][1])));
-    let (add, sub, mul, div) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
-    let zero = _mm256_setzero_ps();
-    let one = _mm256_set1_ps(1.0);
-    // `x.clamp(0.0, 1.0)` for any `x` but NaN's payload: `max(0, x)` keeps `x` when it is NaN
-    // or -0.0 (the second operand wins ties and NaN), as `clamp` does.
-    let clamp01 = |x: __m256| _mm256_min_ps(one, _mm256_max_ps(zero, x));
-    let gt = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_GT_OQ>(a, b);
-    let dot = |a: [__m256; 3], b: [__m256; 3]| {
-        add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-    };
-    let cross = |a: [__m256; 3], b: [__m256; 3]| {
-        [
-            sub(mul(a[1], b[2]), mul(a[2], b[1])),
-            sub(mul(a[2], b[0]), mul(a[0], b[2])),
-            sub(mul(a[0], b[1]), mul(a[1], b[0])),
-        ]
-    };
-    let u = [0, 1, 2].map(|k| sub(p[3 + k], p[k]));
-    let v = [0, 1, 2].map(|k| sub(q[3 + k], q[k]));
-    let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
-    let a = dot(u, u);
-    let e = dot(v, v);
-    let b = dot(u, v);
-    let c = dot(u, r);
-    let f = dot(v, r);
-    let denom = sub(mul(a, e), mul(b, b));
-    let classic = div(sub(mul(b, f), mul(c, e)), denom);
-    let n = cross(u, v);
-    let m = cross(v, r);
-    let nn = dot(n, n);
-    let crossed = div(dot(n, m), nn);
-    // blendv(x, y, mask) takes `y` where the mask is set.
-    let s0 = _mm256_blendv_ps(zero, crossed, gt(nn, zero));
-    let s0 = _mm256_blendv_ps(
-        s0,
-        classic,
-        gt(denom, mul(mul(_mm256_set1_ps(0.0625), a), e)),
+    let (add, sub) = (_mm256_add_ps, _mm256_sub_ps);
+    let (d, band) = lss_lanes!(
+        p,
+        q,
+        __m256,
+        add,
+        sub,
+        _mm256_mul_ps,
+        _mm256_div_ps,
+        _mm256_min_ps,
+        _mm256_max_ps,
+        _mm256_sqrt_ps,
+        _mm256_set1_ps,
+        |a, b| _mm256_cmp_ps::<_CMP_GT_OQ>(a, b),
+        // blendv(x, y, mask) takes `y` where the mask is set.
+        |cond, no, yes| _mm256_blendv_ps(no, yes, cond)
     );
-    let s0 = clamp01(s0);
-    let inv_e = _mm256_blendv_ps(zero, div(one, e), gt(e, zero));
-    let inv_a = _mm256_blendv_ps(zero, div(one, a), gt(a, zero));
-    let t = clamp01(mul(add(mul(b, s0), f), inv_e));
-    let s = clamp01(mul(sub(mul(b, t), c), inv_a));
-    let w = [0, 1, 2].map(|k| sub(add(r[k], mul(u[k], s)), mul(v[k], t)));
-    let d = sub(_mm256_sqrt_ps(dot(w, w)), add(p[6], q[6]));
-    // `p.max(q)` for the scales, which are never NaN (at least 1).
-    let band = mul(_mm256_set1_ps(1e-5), _mm256_max_ps(p[7], q[7]));
     let margin = _mm256_set1_ps(margin);
     let inside = _mm256_cmp_ps::<_CMP_LT_OQ>(d, sub(margin, band));
     let outside = _mm256_cmp_ps::<_CMP_GT_OQ>(d, add(margin, band));
@@ -1124,7 +1147,7 @@ fn transpose16x8(rows: [std::arch::x86_64::__m256; 16]) -> [std::arch::x86_64::_
 }
 
 /// [`lanes_decide_avx2`] on sixteen candidates with AVX-512: the same operations in the same
-/// order on every lane, so the same values and decisions.
+/// order on every lane ([`lss_lanes`]), so the same values and decisions.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
@@ -1133,7 +1156,7 @@ fn lanes_decide_avx512(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32
     use std::arch::x86_64::{
         __m256, __m512, _CMP_GT_OQ, _CMP_LT_OQ, _mm256_loadu_ps, _mm512_add_ps, _mm512_cmp_ps_mask,
         _mm512_div_ps, _mm512_mask_blend_ps, _mm512_max_ps, _mm512_min_ps, _mm512_mul_ps,
-        _mm512_set1_ps, _mm512_setzero_ps, _mm512_sqrt_ps, _mm512_sub_ps,
+        _mm512_set1_ps, _mm512_sqrt_ps, _mm512_sub_ps,
     };
     assert!(block.len() >= 2 * LANES);
     let load = |i: u32| -> __m256 {
@@ -1143,53 +1166,23 @@ fn lanes_decide_avx512(lines: &[Line], block: &[[u32; 2]], margin: Real) -> (u32
     };
     let p = transpose16x8(std::array::from_fn(|l| load(block[l][0])));
     let q = transpose16x8(std::array::from_fn(|l| load(block[l][1])));
-    let (add, sub, mul, div) = (_mm512_add_ps, _mm512_sub_ps, _mm512_mul_ps, _mm512_div_ps);
-    let zero = _mm512_setzero_ps();
-    let one = _mm512_set1_ps(1.0);
-    // As in the AVX2 kernel: `max(0, x)` keeps `x` when it is NaN or -0.0 (the second operand
-    // wins ties and NaN), as `clamp` does.
-    let clamp01 = |x: __m512| _mm512_min_ps(one, _mm512_max_ps(zero, x));
-    let gt = |a: __m512, b: __m512| _mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b);
-    let dot = |a: [__m512; 3], b: [__m512; 3]| {
-        add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
-    };
-    let cross = |a: [__m512; 3], b: [__m512; 3]| {
-        [
-            sub(mul(a[1], b[2]), mul(a[2], b[1])),
-            sub(mul(a[2], b[0]), mul(a[0], b[2])),
-            sub(mul(a[0], b[1]), mul(a[1], b[0])),
-        ]
-    };
-    let u = [0, 1, 2].map(|k| sub(p[3 + k], p[k]));
-    let v = [0, 1, 2].map(|k| sub(q[3 + k], q[k]));
-    let r = [sub(p[0], q[0]), sub(p[1], q[1]), sub(p[2], q[2])];
-    let a = dot(u, u);
-    let e = dot(v, v);
-    let b = dot(u, v);
-    let c = dot(u, r);
-    let f = dot(v, r);
-    let denom = sub(mul(a, e), mul(b, b));
-    let classic = div(sub(mul(b, f), mul(c, e)), denom);
-    let n = cross(u, v);
-    let m = cross(v, r);
-    let nn = dot(n, n);
-    let crossed = div(dot(n, m), nn);
-    // mask_blend(k, x, y) takes `y` where the mask is set.
-    let s0 = _mm512_mask_blend_ps(gt(nn, zero), zero, crossed);
-    let s0 = _mm512_mask_blend_ps(
-        gt(denom, mul(mul(_mm512_set1_ps(0.0625), a), e)),
-        s0,
-        classic,
+    let (add, sub) = (_mm512_add_ps, _mm512_sub_ps);
+    let (d, band) = lss_lanes!(
+        p,
+        q,
+        __m512,
+        add,
+        sub,
+        _mm512_mul_ps,
+        _mm512_div_ps,
+        _mm512_min_ps,
+        _mm512_max_ps,
+        _mm512_sqrt_ps,
+        _mm512_set1_ps,
+        |a, b| _mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b),
+        // mask_blend(mask, x, y) takes `y` where the mask is set.
+        |cond, no, yes| _mm512_mask_blend_ps(cond, no, yes)
     );
-    let s0 = clamp01(s0);
-    let inv_e = _mm512_mask_blend_ps(gt(e, zero), zero, div(one, e));
-    let inv_a = _mm512_mask_blend_ps(gt(a, zero), zero, div(one, a));
-    let t = clamp01(mul(add(mul(b, s0), f), inv_e));
-    let s = clamp01(mul(sub(mul(b, t), c), inv_a));
-    let w = [0, 1, 2].map(|k| sub(add(r[k], mul(u[k], s)), mul(v[k], t)));
-    let d = sub(_mm512_sqrt_ps(dot(w, w)), add(p[6], q[6]));
-    // `p.max(q)` for the scales, which are never NaN (at least 1).
-    let band = mul(_mm512_set1_ps(1e-5), _mm512_max_ps(p[7], q[7]));
     let margin = _mm512_set1_ps(margin);
     let inside = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d, sub(margin, band));
     let outside = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(d, add(margin, band));
