@@ -191,10 +191,10 @@
 //! | 1 | pair search | 39.8-40.9 | 21.6-21.9 |
 //! | 1 | rebuild | 31.2-32.3 | 25.0-29.2 |
 //!
-//! `cargo run --release -- bench grid --json` (medians of seven) gives `total_ms` 25.2-28.7,
-//! `build_ms` 14.0-16.0, `pairs_ms` 11.1-12.9 and `ratio` 8.8-10.4 over three runs, with
-//! identical pairs. The same command gave 47.8 and 48.9 ms before (45-53 ms over the previous
-//! session). The goal of issue 4, under 30 ms on 2 cores, is met on this machine. A processor
+//! `cargo run --release -- bench grid --json` (medians of seven) gives `total_ms` 26.0-28.0,
+//! `build_ms` 14.4-14.8, `pairs_ms` 11.5-11.7 and `ratio` 9.1-10.0 over three runs, with
+//! identical pairs; the binary before, run right after, gave 38.1 and 42.3 ms (and 45-53 ms over
+//! the previous session). The goal of issue 4, under 30 ms on 2 cores, is met on this machine. A processor
 //! without AVX-512 runs the AVX2 kernels, at about the figures before.
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
