@@ -194,8 +194,8 @@
 //! `cargo run --release -- bench grid --json` (medians of seven) gives `total_ms` 26.0-28.0,
 //! `build_ms` 14.4-14.8, `pairs_ms` 11.5-11.7 and `ratio` 9.1-10.0 over three runs, with
 //! identical pairs; the binary before, run right after, gave 38.1 and 42.3 ms (and 45-53 ms over
-//! the previous session). The goal of issue 4, under 30 ms on 2 cores, is met on this machine. A processor
-//! without AVX-512 runs the AVX2 kernels, at about the figures before.
+//! the previous session). The goal of issue 4, under 30 ms on 2 cores, is met on this machine. A
+//! processor without AVX-512 runs the AVX2 kernels, at about the figures before.
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
