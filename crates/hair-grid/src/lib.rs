@@ -10,6 +10,7 @@
 //! | [`Grid`], [`GridConfig`], [`Section`] | insert hair sections (LSS / RSS / PSS from `hair-ssv`); cell size = mean segment length by default; each section covers exactly the cells its core reaches, grown by its radius |
 //! | [`Grid::candidate_pairs`], [`Grid::overlapping_pairs`], [`PairSet`] | unique hair-hair candidate pairs (each reported once, optionally skipping same-skeleton neighbours), and the exact-overlap pairs by `hair-ssv` distance |
 //! | [`Grid::overlapping_pairs_by_rank`], [`Grid::search_order`] | the same pairs by position in the search's order, for callers that lay their per-section data out in it |
+//! | [`kernel_name`] | which instruction set the search runs here (AVX-512, AVX2 or baseline: the same results, different times) |
 //! | [`BodyGrid`], [`Grid::body_cells`], [`BodyCells`] | body triangles inserted once; cells holding both hair and body, with their triangles |
 //! | [`InfluenceVolume`], [`Cone`], [`Grid::sections_in`], [`Grid::cells_touched_by`] | tool volumes (cone for water, spray, mousse, dryer, grab; triangle for scissors): cells first, then the exact test |
 //! | [`Activity`], [`ActivityConfig`], [`ActivityInput`], [`CellState`] | active and dormant cells; frozen sections; the skeletons to integrate this step |
@@ -243,6 +244,6 @@ pub use cell_key::{CellKey, LATTICE_HALF};
 pub use error::GridError;
 pub use grid::{Grid, GridConfig, Section};
 pub use influence::{Cone, InfluenceVolume};
-pub use pairs::PairSet;
+pub use pairs::{PairSet, kernel_name};
 
 pub use hair_ssv::{Point, Real, Ssv, Vector};

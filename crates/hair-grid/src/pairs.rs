@@ -1078,6 +1078,18 @@ enum Kernel {
     Avx512,
 }
 
+/// The instruction set the pair search and the rebuild's covers use on this processor:
+/// `"avx512"`, `"avx2"` or `"baseline"` (SSE2 on x86-64, plain Rust elsewhere). Every kernel gives
+/// the same cells and pairs in the same order; only the time differs, so benchmark figures
+/// should name it.
+pub fn kernel_name() -> &'static str {
+    match Kernel::best() {
+        Kernel::Avx512 => "avx512",
+        Kernel::Avx2 => "avx2",
+        Kernel::Base => "baseline",
+    }
+}
+
 impl Kernel {
     /// The widest kernel this processor runs (checked once by the standard library, then
     /// cached).

@@ -224,6 +224,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let v = serde_json::json!({
             "segments": sections.len(),
             "threads": threads,
+            "kernel": hair::grid::kernel_name(),
             "cell_size_m": grid.cell_size(),
             "cells": grid.cell_count(),
             "entries": grid.entry_count(),
@@ -250,9 +251,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let maxm = grid.cells().map(|(_, s)| s.len()).max().unwrap_or(0);
         println!("pair instances in cells: {inst}, largest cell {maxm}");
         println!(
-            "grid: {} segments, {} threads, cell {:.4} m, {} cells, {} entries",
+            "grid: {} segments, {} threads, {} kernels, cell {:.4} m, {} cells, {} entries",
             sections.len(),
             threads,
+            hair::grid::kernel_name(),
             grid.cell_size(),
             grid.cell_count(),
             grid.entry_count()
