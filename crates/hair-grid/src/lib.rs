@@ -197,9 +197,9 @@
 //! identical pairs; the binary before, run right after, gave 38.1 and 42.3 ms (and 45-53 ms over
 //! the previous session). The shared host has slower phases: an hour later the same commands gave
 //! 29.5-34.4 ms, and 51.0 ms for the binary before. So the goal of issue 4, under 30 ms on 2
-//! cores, is met only while the host runs at its usual speed; the rebuild, which moves about
-//! 200 MB per call, is what slows most. A processor without AVX-512 runs the AVX2 kernels, at
-//! about the figures before.
+//! cores, is met only while the host runs at its usual speed. Both halves slowed by about a
+//! fifth to a quarter (`build_ms` 14.4-14.8 to 18.1-18.3, `pairs_ms` 11.5-11.7 to 13.6-14.5).
+//! A processor without AVX-512 runs the AVX2 kernels, at about the figures before.
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
