@@ -961,7 +961,7 @@ impl Grid {
         let clip = CellBox::ALL;
         // Eight short covers at a time where the processor has AVX-512.
         #[cfg(target_arch = "x86_64")]
-        let wide = std::arch::is_x86_feature_detected!("avx512f");
+        let wide = crate::pairs::Kernel::best() == crate::pairs::Kernel::Avx512;
         if self.recs.len() < sections.len() {
             self.recs.resize(sections.len(), Rec::default());
             self.shapes.resize(sections.len(), sections[0].shape);
@@ -999,7 +999,8 @@ impl Grid {
                     }
                     #[cfg(target_arch = "x86_64")]
                     if wide && l % 8 == 0 {
-                        // SAFETY: `wide` is set only when AVX-512F was found on this processor.
+                        // SAFETY: `wide` is set only when `Kernel::best` found AVX-512F on this
+                        // processor.
                         #[allow(unsafe_code)]
                         {
                             group = unsafe { small_covers_avx512(&secs[l..], inv, grow) };

@@ -119,10 +119,9 @@ struct CellCols {
     boxes: [Vec<f32>; 6],
     /// Earlier-cell bit sets ([`earlier_cells`]), padded with zeros.
     earlier: Vec<u64>,
-    /// Skeleton and segment, and the entry's section (internal index), padded with zeros.
+    /// Skeleton and segment, padded with zeros.
     skel: Vec<u32>,
     seg: Vec<u32>,
-    ents: Vec<u32>,
 }
 
 /// The box columns of one cell, each `len` long (the entries and their padding), sliced once per
@@ -401,13 +400,12 @@ impl Grid {
             for col in cols.boxes.iter_mut() {
                 col.resize(m + PAD, f32::NAN);
             }
-            for col in [&mut cols.skel, &mut cols.seg, &mut cols.ents] {
+            for col in [&mut cols.skel, &mut cols.seg] {
                 col.resize(m + PAD, 0);
             }
             cols.earlier.resize(m + PAD, 0);
         }
         cols.earlier[..m].copy_from_slice(earlier);
-        cols.ents[..m].copy_from_slice(ents);
         for col in cols.boxes.iter_mut() {
             col[m..m + PAD].fill(f32::NAN);
         }
@@ -434,18 +432,12 @@ impl Grid {
         let mut nc = *n_cand;
         let view = CellView::new(cols, m + PAD);
         for a in 0..m - 1 {
-            let bx = &view.cols;
-            let head = RowHead {
-                lo: [bx[0][a], bx[1][a], bx[2][a]],
-                hi: [bx[3][a], bx[4][a], bx[5][a]],
-                earlier: earlier[a],
-            };
             // This row's candidates: at most one per box after `a`.
             if cand.len() < nc + m {
                 cand.resize(nc + m, [0; 2]);
             }
             let row = &mut cand[nc..nc + m];
-            let k = self.row::<AVX>(key, &view, cols, &head, a, row);
+            let k = self.row::<AVX>(key, &view, cols, ents, a, row);
             nc += k;
             if nc >= BATCH {
                 self.finish::<AVX, false>(&cand[..nc], pairs, report);
@@ -550,13 +542,19 @@ impl Grid {
         key: u64,
         view: &CellView,
         cols: &CellCols,
-        head: &RowHead,
+        ents: &[u32],
         a: usize,
         row: &mut [[u32; 2]],
     ) -> usize {
         let skip = self.config.skip_neighbours;
         let m = view.len - PAD;
-        let (skel_a, seg_a, ent_a) = (cols.skel[a], cols.seg[a], cols.ents[a]);
+        let bx = &view.cols;
+        let head = &RowHead {
+            lo: [bx[0][a], bx[1][a], bx[2][a]],
+            hi: [bx[3][a], bx[4][a], bx[5][a]],
+            earlier: view.earlier[a],
+        };
+        let (skel_a, seg_a, ent_a) = (cols.skel[a], cols.seg[a], ents[a]);
         let mut k = 0;
         let b0 = a + 1;
         let n = m - b0;
@@ -573,9 +571,9 @@ impl Grid {
                 let (here, unsure) = owner(head.earlier, view.earlier[b]);
                 let apart = (skel_a != skel_b) | (seg_a.abs_diff(seg_b) > skip);
                 // Written ahead, kept by advancing `k`: no branch but for the rare `unsure`.
-                row[k] = [ent_a, cols.ents[b]];
+                row[k] = [ent_a, ents[b]];
                 if apart & unsure {
-                    k += usize::from(self.first_shared(key, ent_a, cols.ents[b]));
+                    k += usize::from(self.first_shared(key, ent_a, ents[b]));
                     continue;
                 }
                 k += usize::from(apart & here);
@@ -1069,7 +1067,7 @@ fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u
 /// The kernels of the pair search, narrowest first. Each gives the same pairs in the same
 /// order; the search runs the widest one the processor has.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-enum Kernel {
+pub(crate) enum Kernel {
     /// SSE2 row tests on x86-64, plain Rust elsewhere.
     Base,
     /// AVX2 row tests and exact test.
@@ -1093,7 +1091,7 @@ pub fn kernel_name() -> &'static str {
 impl Kernel {
     /// The widest kernel this processor runs (checked once by the standard library, then
     /// cached).
-    fn best() -> Self {
+    pub(crate) fn best() -> Self {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("popcnt")
