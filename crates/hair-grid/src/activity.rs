@@ -281,7 +281,7 @@ impl Activity {
         self.integrate.extend(
             (0..n)
                 .filter(|&i| !self.frozen[i])
-                .map(|i| grid.rec(i).skeleton),
+                .map(|i| grid.pbox(i).skeleton),
         );
         self.integrate.sort_unstable();
         self.integrate.dedup();

@@ -63,36 +63,20 @@ impl Default for GridConfig {
     }
 }
 
-/// Per-section record: the bounding box grown by half the margin and the rounding slack, the
-/// ids, and the core for the exact pair test. One cache line, so that copying the records into
-/// the pair search's order reads one line per section.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(64))]
-pub(crate) struct Rec {
-    pub aabb: [Real; 6],
-    pub skeleton: u32,
-    pub segment: u32,
-    pub line: Line,
-}
-
-impl Rec {
-    /// The record of section `s` whose shape has the bounding box `(a, b)`, grown by `slack`.
-    #[inline(always)]
-    fn of(s: &Section, (a, b): (Point, Point), slack: Real) -> Self {
-        Self {
-            aabb: [
-                a.x - slack,
-                a.y - slack,
-                a.z - slack,
-                b.x + slack,
-                b.y + slack,
-                b.z + slack,
-            ],
-            skeleton: s.skeleton,
-            segment: s.segment,
-            line: line_of(&s.shape),
-        }
-    }
+/// The pair search's box and line of a section, its box grown by `slack`.
+#[inline(always)]
+fn placed(s: &Section, slack: Real) -> (PBox, Line) {
+    let (a, b) = match &s.shape {
+        Ssv::Line(l) => l.aabb(),
+        shape => shape.aabb(),
+    };
+    let pbox = PBox {
+        lo: [a.x - slack, a.y - slack, a.z - slack],
+        hi: [b.x + slack, b.y + slack, b.z + slack],
+        skeleton: s.skeleton,
+        segment: s.segment,
+    };
+    (pbox, line_of(&s.shape))
 }
 
 /// One entry in the scatter's output: its section (low half) and the section's rank in the pair
@@ -140,9 +124,12 @@ pub struct Grid {
     pub(crate) dims: [u64; 3],
     pub(crate) chunks: Vec<CoverChunk>,
     pub(crate) n_chunks: usize,
-    /// Per-section records and shapes (the first `len` are valid).
-    pub(crate) recs: Vec<Rec>,
-    pub(crate) shapes: Vec<Ssv>,
+    /// The shapes of the sections that are not an LSS, by section index (the other slots are
+    /// stale: an LSS is rebuilt from its line in `packed`, so that the rebuild does not copy
+    /// every shape).
+    shapes: Vec<Ssv>,
+    /// Growth of the bounding boxes: half the margin plus the rounding slack.
+    slack: Real,
     entries: usize,
     /// Dense path: after the scatter, `prefix[k]` is the end of box cell `k` in `sorted_items`.
     dense: bool,
@@ -681,7 +668,7 @@ impl Grid {
             dims: [0; 3],
             chunks: Vec::new(),
             n_chunks: 0,
-            recs: Vec::new(),
+            slack: 0.0,
             shapes: Vec::new(),
             entries: 0,
             dense: false,
@@ -733,37 +720,48 @@ impl Grid {
         self.entries
     }
 
+    /// The box and ids of section `i`, in the pair search's data.
     #[inline]
-    pub(crate) fn rec(&self, i: usize) -> &Rec {
-        &self.recs[i]
+    pub(crate) fn pbox(&self, i: usize) -> &PBox {
+        &self.packed.boxes[self.packed.rank[i] as usize]
     }
 
+    /// The volume of section `i` (`i < len`): an LSS is rebuilt, bit for bit, from its line.
     #[inline]
-    pub(crate) fn shape_at(&self, i: usize) -> &Ssv {
-        &self.shapes[i]
+    pub(crate) fn shape_at(&self, i: usize) -> Ssv {
+        let l = &self.packed.lines[self.packed.rank[i] as usize];
+        if l[6].is_nan() {
+            self.shapes[i]
+        } else {
+            Ssv::Line(hair_ssv::Lss::new(
+                Point::new(l[0], l[1], l[2]),
+                Point::new(l[3], l[4], l[5]),
+                l[6],
+            ))
+        }
     }
 
     /// The volume of section `i`.
-    pub fn shape(&self, i: usize) -> Option<&Ssv> {
+    pub fn shape(&self, i: usize) -> Option<Ssv> {
         (i < self.len).then(|| self.shape_at(i))
     }
 
     /// Skeleton id of section `i`.
     pub fn skeleton(&self, i: usize) -> Option<u32> {
-        (i < self.len).then(|| self.rec(i).skeleton)
+        (i < self.len).then(|| self.pbox(i).skeleton)
     }
 
     /// Segment id of section `i`.
     pub fn segment(&self, i: usize) -> Option<u32> {
-        (i < self.len).then(|| self.rec(i).segment)
+        (i < self.len).then(|| self.pbox(i).segment)
     }
 
     /// Bounding box `(min, max)` of section `i` as the grid uses it: grown by half the margin and
     /// a rounding slack of 0.001 cell.
     pub fn aabb(&self, i: usize) -> Option<(Point, Point)> {
         (i < self.len).then(|| {
-            let b = self.rec(i).aabb;
-            (Point::new(b[0], b[1], b[2]), Point::new(b[3], b[4], b[5]))
+            let b = self.pbox(i);
+            (Point::from(b.lo), Point::from(b.hi))
         })
     }
 
@@ -946,6 +944,7 @@ impl Grid {
         let inv = self.inv;
         let grow = f64::from(margin) * 0.5;
         let slack = (grow + EPS_CELLS * f64::from(h)) as Real;
+        self.slack = slack;
         self.len = sections.len();
         if sections.is_empty() {
             return Ok(());
@@ -962,17 +961,15 @@ impl Grid {
         // Eight short covers at a time where the processor has AVX-512.
         #[cfg(target_arch = "x86_64")]
         let wide = crate::pairs::Kernel::best() == crate::pairs::Kernel::Avx512;
-        if self.recs.len() < sections.len() {
-            self.recs.resize(sections.len(), Rec::default());
+        if self.shapes.len() < sections.len() {
             self.shapes.resize(sections.len(), sections[0].shape);
         }
         self.chunks[..n_chunks]
             .par_iter_mut()
             .zip(sections.par_chunks(CHUNK))
-            .zip(self.recs.par_chunks_mut(CHUNK))
             .zip(self.shapes.par_chunks_mut(CHUNK))
             .enumerate()
-            .for_each(|(ci, (((chunk, secs), recs), shapes))| {
+            .for_each(|(ci, ((chunk, secs), shapes))| {
                 let CoverChunk {
                     keys,
                     dense: _,
@@ -1018,8 +1015,6 @@ impl Grid {
                         && (limit >= SHORT as u64
                             || u64::from((mask & !SMALL).count_ones()) <= limit)
                     {
-                        shapes[l] = s.shape;
-                        recs[l] = Rec::of(s, ln.aabb(), slack);
                         for k in 0..3 {
                             lo[k] = lo[k].min(cl[k]);
                             hi[k] = hi[k].max(ch[k]);
@@ -1036,8 +1031,9 @@ impl Grid {
                         });
                         break;
                     }
-                    shapes[l] = s.shape;
-                    recs[l] = Rec::of(s, s.shape.aabb(), slack);
+                    if !matches!(s.shape, Ssv::Line(_)) {
+                        shapes[l] = s.shape;
+                    }
                     let (v, n, r) = core_in_cells(&s.shape, inv, grow);
                     let (cl, ch) = cell_range(&v[..n], r);
                     for k in 0..3 {
@@ -1114,14 +1110,14 @@ impl Grid {
         }
         self.entries = self.chunks[..n_chunks].iter().map(|c| c.keys.len()).sum();
         self.sort_entries();
-        self.pack();
+        self.pack(sections);
         Ok(())
     }
 
     /// Copies the section data into the pair search's order (by first cell, then by index; a
     /// counting sort over the cells) and renumbers the entries. On the dense path the sort and
     /// the renumbering were done with the entries ([`Grid::sort_entries`]).
-    fn pack(&mut self) {
+    fn pack(&mut self, sections: &[Section]) {
         let n = self.len;
         if !self.dense {
             let n_cells = self.cell_keys.len();
@@ -1165,26 +1161,22 @@ impl Grid {
         let pk = &mut self.packed;
         pk.boxes.resize(n, PBox::default());
         pk.lines.resize(n, [0.0; 8]);
-        let (recs, order) = (&self.recs, &pk.order);
+        let (order, slack) = (&pk.order, self.slack);
         pk.boxes
             .par_chunks_mut(CHUNK)
             .zip(pk.lines.par_chunks_mut(CHUNK))
             .zip(order.par_chunks(CHUNK))
             .for_each(|((boxes, lines), order)| {
                 for (k, &i) in order.iter().enumerate() {
-                    // The records are read in the search's order, scattered over the scene's:
-                    // fetch ahead, or each one waits for memory.
+                    // The sections are read in the search's order, scattered over the scene's:
+                    // fetch ahead (both lines a section may straddle), or each one waits for
+                    // memory.
                     if let Some(&f) = order.get(k + PREFETCH) {
-                        prefetch(recs.as_ptr().wrapping_add(f as usize));
+                        let p = sections.as_ptr().wrapping_add(f as usize);
+                        prefetch(p);
+                        prefetch(p.cast::<u8>().wrapping_add(size_of::<Section>() - 1));
                     }
-                    let r = &recs[i as usize];
-                    boxes[k] = PBox {
-                        lo: [r.aabb[0], r.aabb[1], r.aabb[2]],
-                        hi: [r.aabb[3], r.aabb[4], r.aabb[5]],
-                        skeleton: r.skeleton,
-                        segment: r.segment,
-                    };
-                    lines[k] = r.line;
+                    (boxes[k], lines[k]) = placed(&sections[i as usize], slack);
                 }
             });
     }

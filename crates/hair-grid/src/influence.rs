@@ -351,7 +351,7 @@ impl Grid {
         }
         out.sort_unstable();
         out.dedup();
-        out.retain(|&i| volume.touches(self.shape_at(i as usize)));
+        out.retain(|&i| volume.touches(&self.shape_at(i as usize)));
         Ok(())
     }
 }

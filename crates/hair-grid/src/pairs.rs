@@ -706,7 +706,7 @@ impl Grid {
             (Some(p), Some(q)) => p.distance(&q) <= margin,
             _ => {
                 let (i, j) = (order[a as usize] as usize, order[b as usize] as usize);
-                self.shape_at(i).distance(self.shape_at(j)) <= margin
+                self.shape_at(i).distance(&self.shape_at(j)) <= margin
             }
         }
     }

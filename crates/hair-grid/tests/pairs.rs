@@ -41,6 +41,29 @@ proptest! {
         check(&secs, GridConfig { cell_size: cell, max_cells_per_item: 1 << 20, ..GridConfig::default() })?;
     }
 
+    /// The grid keeps only the lines of the LSS sections (in the pair search's order) and the
+    /// shapes of the others: every section must still read back exactly as it was inserted.
+    #[test]
+    fn every_section_reads_back_as_inserted(secs in sections(60), margin in 0.0f32..0.02) {
+        let h = 0.05f32;
+        let mut grid = Grid::new(GridConfig { cell_size: Some(h), margin, max_cells_per_item: 1 << 20, ..GridConfig::default() });
+        prop_assume!(grid.rebuild(&secs).is_ok());
+        let slack = f64::from(margin) * 0.5 + 1e-3 * f64::from(h);
+        for (i, s) in secs.iter().enumerate() {
+            prop_assert_eq!(grid.shape(i), Some(s.shape), "section {}", i);
+            prop_assert_eq!(grid.skeleton(i), Some(s.skeleton));
+            prop_assert_eq!(grid.segment(i), Some(s.segment));
+            let (lo, hi) = grid.aabb(i).unwrap_or_default();
+            let (a, b) = s.shape.aabb();
+            for k in 0..3 {
+                prop_assert!((f64::from(a[k] - lo[k]) - slack).abs() < 1e-6, "section {} low {}", i, k);
+                prop_assert!((f64::from(hi[k] - b[k]) - slack).abs() < 1e-6, "section {} high {}", i, k);
+            }
+        }
+        prop_assert_eq!(grid.shape(secs.len()), None);
+        prop_assert_eq!(grid.skeleton(secs.len()), None);
+    }
+
     #[test]
     fn candidates_contain_every_pair_within_the_margin(secs in sections(40), margin in 0.0f32..0.03) {
         check(&secs, GridConfig { cell_size: Some(0.05), margin, skip_neighbours: 0, ..GridConfig::default() })?;
