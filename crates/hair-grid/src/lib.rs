@@ -178,7 +178,7 @@
 //!   lies within 2 x 2 x 2 cells, which is most hair sections. Every case of the scalar small
 //!   mask is computed and then selected: the direction's sign and the one-or-two-cell cases
 //!   mispredict in a scalar loop.
-//! - **Prefetching.** The rebuild's scattered writes (the entries) and reads (the records in the
+//! - **Prefetching.** The rebuild's scattered writes (the entries) and reads (the sections in the
 //!   search's order) fetch their lines 16 items ahead.
 //!
 //! Measured on the 2-core machine, alternating the binaries of the commit before (6012437) and
@@ -200,6 +200,21 @@
 //! cores, is met only while the host runs at its usual speed. Both halves slowed by about a
 //! fifth to a quarter (`build_ms` 14.4-14.8 to 18.1-18.3, `pairs_ms` 11.5-11.7 to 13.6-14.5).
 //! A processor without AVX-512 runs the AVX2 kernels, at about the figures before.
+//!
+//! The rebuild then stopped copying each section twice: once into a 64-byte record (box, ids and
+//! core) in the caller's order, once as its shape (19 MB and 16 MB written per rebuild of the
+//! bench scene). The pack now reads the caller's sections directly in the search's order, both
+//! cache lines a section may straddle fetched ahead, and an LSS reads back from its core in the
+//! search's data (`Grid::shape` returns it by value); only the few shapes that are not an LSS
+//! are kept. The pack got slower (about 2.0 to 2.6 ms: two lines per section instead of one),
+//! the covers faster by more (about 5.2 to 4.3 ms). `grid_profile build 15`, alternated with
+//! the commit before over eight rounds: fastest of 15 rebuilds 13.75 ms before and 12.8 ms after
+//! (medians of the rounds). Measured and dropped with it: writing each section's box and core at
+//! its rank from the scatter, which reads the sections in their own order (scattered writes of
+//! two lines per section: the scatter went from 3.3 to 8-12 ms); counting the entries per box
+//! cell as each chunk is covered, with the box taken from a pass over the sections' boxes (that
+//! pass cost 1.3 ms more than it saved) or from the last rebuild's box (no change: 12.4-12.8
+//! against 12.5-13.3 ms, alternated).
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are
