@@ -110,6 +110,9 @@ pub struct Simulation {
     /// Per skeleton, the first node the hard constraint moved in this pass (`u32::MAX`: none).
     first_moved: Vec<u32>,
     body_hits: Vec<Option<(Real, Vector)>>,
+    /// Per node, during the depenetration ramp: how far its sphere may still reach into the
+    /// body at the end of this step (m).
+    allowance: Vec<Real>,
     render: RenderGeometry,
     strand_node: Vec<u32>,
     /// Transport frames of the front skeletons' nodes, by global node index.
@@ -279,6 +282,7 @@ impl Simulation {
             body_nodes: Vec::new(),
             first_moved: Vec::new(),
             body_hits: Vec::new(),
+            allowance: Vec::new(),
             render: RenderGeometry {
                 subdivisions: 3,
                 ..RenderGeometry::default()
@@ -902,14 +906,20 @@ impl Simulation {
     /// front node closer to the body than its radius is moved out along the body's normal and
     /// loses its velocity into the body, with friction. The node stays on the sphere about the
     /// node before it, so a segment hanging straight into a surface swings out of it instead of
-    /// being re-aimed along itself. In the first `depenetration_steps` steps (the ramp) each pass
-    /// moves a node only `1 / (steps left)` of its depth, so that hair that starts deep inside
-    /// comes out over several passes instead of in one move; the passes compound, so that most of
-    /// the depth goes in the ramp's first step (every built-in scene is within 0.5 mm of the
-    /// surface after it), and only the last ramp step moves nodes all the way. Passes repeat on
-    /// the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of the
-    /// tolerance), or [`BODY_PASSES`] have run and no node is deeper than half the tolerance, or
-    /// [`MAX_BODY_PASSES`] have run; the last detection measures what remains. Passes from
+    /// being re-aimed along itself. Hair that starts inside the body (at the first step, or the
+    /// first after a reset) comes out linearly over the first `depenetration_steps` steps (the
+    /// ramp): at the end of ramp step `k` a node may still reach `(ramp - k - 1) / (ramp - k)` of
+    /// the way it reached at the start of that step, and never more than it was allowed the step
+    /// before, so whatever pushes it back in, it is held to the ramp; a node next to one still
+    /// allowed inside is allowed that, less the segment between them. Every other node, including
+    /// one that reaches the body during the ramp, is resolved at once. (Before, each pass of a
+    /// ramp step moved every node `1 / (steps left)` of its depth and the passes compounded: the
+    /// hair came out almost entirely in the first step, and every contact made during the ramp
+    /// ran all [`MAX_BODY_PASSES`] passes, a second per step on `scenes/strands10k.ron`.) Passes
+    /// repeat on the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of
+    /// the tolerance) beyond its allowance, or [`BODY_PASSES`] have run and no node is deeper than
+    /// half the tolerance beyond it, or [`MAX_BODY_PASSES`] have run; the last detection measures
+    /// what remains. Passes from
     /// [`BODY_PASSES`] on use the exact distance, whatever the scene's method, once at most
     /// [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose centre is still
     /// inside by more than half the tolerance to the nearest point of its sphere about its parent
@@ -921,11 +931,23 @@ impl Simulation {
             return Ok((0, 0.0));
         };
         let ramp = self.scene.collision.depenetration_steps as u64;
-        let fraction = if self.steps < ramp {
-            1.0 / (ramp - self.steps) as Real
+        // A node that starts inside the body comes out linearly over the ramp's steps: at the
+        // end of step `k` its sphere may still reach `(ramp - k - 1) / (ramp - k)` of the way
+        // it reached at the start of the step, and never more than it was allowed at the end of
+        // the step before (so it is pushed back out to that, whatever else pushes it in). A node
+        // that was out, including one that reaches the body during the ramp, is resolved at once.
+        let in_ramp = self.steps < ramp;
+        let keep = if in_ramp {
+            (ramp - self.steps - 1) as Real / (ramp - self.steps) as Real
         } else {
-            1.0
+            0.0
         };
+        if self.steps == 0 {
+            // The allowances start from the depths read on the first pass below (a root the
+            // constraint does not move is allowed nothing).
+            self.allowance.clear();
+            self.allowance.resize(self.state.positions().len(), 0.0);
+        }
         let method = self.scene.collision.method;
         let friction = self.scene.collision.friction;
         self.body_nodes.clear();
@@ -976,12 +998,33 @@ impl Simulation {
             self.corrections.clear();
             self.constraints.clear();
             deepest = 0.0;
+            // The deepest node centre beyond what the ramp allows it: the passes stop when it is
+            // out.
+            let mut deepest_free: Real = 0.0;
             // Nodes sent to [`escape`] this pass (each costs up to a few hundred exact queries).
             let mut escapes = 0;
             self.first_moved.clear();
             self.first_moved
                 .resize(self.state.skeleton_count(), u32::MAX);
             for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
+                let node = bn.node as usize;
+                if in_ramp && pass == 0 && node < self.allowance.len() {
+                    let reach = hit.map_or(0.0, |(d, _)| (bn.radius - d).max(0.0));
+                    let before = if self.steps == 0 {
+                        reach
+                    } else {
+                        self.allowance[node].min(reach)
+                    };
+                    let mut a = before * keep;
+                    // A node next to one still allowed inside may be held inside by it, less
+                    // the segment between them (its sphere about that node reaches no farther
+                    // out). The nodes of a skeleton come root first, so the one before is done.
+                    if let Some(&b) = self.allowance.get(bn.prev as usize) {
+                        let len = (positions[node] - positions[bn.prev as usize]).norm();
+                        a = a.max(b - len);
+                    }
+                    self.allowance[node] = a;
+                }
                 let Some((d, n)) = hit else { continue };
                 deepest = deepest.max(-d);
                 self.constraints.push(VelocityConstraint {
@@ -989,12 +1032,20 @@ impl Simulation {
                     normal: *n,
                     friction,
                 });
-                if bn.radius - d <= skin {
-                    // In contact but already out: only its approach is removed.
+                let allowed = if in_ramp {
+                    self.allowance.get(node).copied().unwrap_or(0.0)
+                } else {
+                    0.0
+                };
+                let ramped = allowed > 0.0;
+                let lift = bn.radius - d - allowed;
+                if lift <= skin {
+                    // In contact but out as far as it needs to be: only its approach is
+                    // removed.
                     continue;
                 }
+                deepest_free = deepest_free.max(-d - allowed);
                 let p = positions[bn.node as usize];
-                let lift = (bn.radius - d) * fraction;
                 let mut target = p + n * lift;
                 if bn.prev != u32::MAX {
                     let a = positions[bn.prev as usize];
@@ -1005,7 +1056,7 @@ impl Simulation {
                         // where lifting along its own normal lands in the body again (a thin part
                         // such as an ear, or a crease): it goes to the nearest place on its sphere
                         // that clears.
-                        let stuck = fraction == 1.0
+                        let stuck = !ramped
                             && pass >= BODY_PASSES
                             && -d > tolerance
                             && escapes < EXACT_LATE_NODES;
@@ -1040,7 +1091,7 @@ impl Simulation {
             }
             let done = self.corrections.is_empty()
                 || pass == MAX_BODY_PASSES
-                || (pass >= BODY_PASSES && deepest <= tolerance);
+                || (pass >= BODY_PASSES && deepest_free <= tolerance);
             if !done {
                 self.state.apply_corrections(&self.corrections)?;
             }

@@ -317,3 +317,40 @@ fn hair_hair_push_is_used_and_deterministic() {
     assert_eq!(default.collision.hair_hair_push, Mean);
     assert!(Scene::from_ron("Scene(collision: (hair_hair_push: Max))", "bad.ron").is_err());
 }
+
+/// Hair that starts inside the body comes out over the depenetration ramp, not in one step:
+/// `wardlin`'s draped hair starts with nodes about a centimetre inside the head. Each step of
+/// the ramp may leave a node no deeper than a shrinking share of how deep it started, so the
+/// deepest node comes out step by step and is out by the ramp's end; a reset starts the ramp
+/// again, with the same steps.
+#[test]
+fn hair_starting_inside_comes_out_over_the_ramp() {
+    let scene = Scene::load("wardlin").unwrap();
+    let ramp = scene.scene.collision.depenetration_steps as usize;
+    let tolerance = f64::from(scene.scene.collision.tolerance);
+    assert!(ramp >= 4, "the scene's ramp is {ramp} steps");
+    let mut sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
+    let depths: Vec<f64> = (0..ramp)
+        .map(|_| sim.step().unwrap().max_penetration_m)
+        .collect();
+    // Not pushed out at once: most of the starting depth is still there after the first step
+    // (the hard constraint alone would leave nothing deeper than the tolerance).
+    assert!(
+        depths[0] > 0.005,
+        "deepest node {} m inside after the first step",
+        depths[0]
+    );
+    for k in 1..ramp {
+        // Step k may leave at most (ramp - k - 1) / (ramp - 1) of what step 0 left.
+        let bound = depths[0] * (ramp - k - 1) as f64 / (ramp - 1) as f64 + tolerance;
+        assert!(
+            depths[k] <= bound,
+            "step {k}: {} m inside, more than the ramp allows ({bound} m); depths {depths:?}",
+            depths[k]
+        );
+    }
+    assert!(depths[ramp - 1] <= tolerance, "depths {depths:?}");
+    sim.reset();
+    let again = sim.step().unwrap().max_penetration_m;
+    assert_eq!(again, depths[0], "a reset does not restart the ramp");
+}
