@@ -971,6 +971,9 @@ impl Simulation {
         }
         let mut contacts = 0;
         let mut deepest: Real = 0.0;
+        // The deepest node centre among the nodes the passes stopped testing (they no longer
+        // move).
+        let mut settled: Real = 0.0;
         let tolerance = 0.5 * self.scene.collision.tolerance;
         // A node the last pass left within rounding of the surface is in contact but needs no
         // refit: without this skin every pass found a few hundred nodes a few nanometres in and
@@ -1102,12 +1105,18 @@ impl Simulation {
                 break;
             }
             // The refit moves a skeleton's nodes from its first corrected one on; the nodes
-            // before it stay where this pass found them out of the body.
+            // before it stay where this pass found them: out of the body, or (on the ramp)
+            // within their allowance, which the depth reported at the end still counts.
             let first_moved = &self.first_moved;
+            for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
+                if let (true, Some((d, _))) = (bn.node < first_moved[bn.skeleton as usize], hit) {
+                    settled = settled.max(-d);
+                }
+            }
             self.body_nodes
                 .retain(|bn| bn.node >= first_moved[bn.skeleton as usize]);
         }
-        Ok((contacts, deepest.max(0.0)))
+        Ok((contacts, deepest.max(settled).max(0.0)))
     }
 
     /// Kinetic energy of the front's nodes (J, head frame).

@@ -321,8 +321,8 @@ fn hair_hair_push_is_used_and_deterministic() {
 /// Hair that starts inside the body comes out over the depenetration ramp, not in one step:
 /// `wardlin`'s draped hair starts with nodes about a centimetre inside the head. Each step of
 /// the ramp may leave a node no deeper than a shrinking share of how deep it started, so the
-/// deepest node comes out step by step and is out by the ramp's end; a reset starts the ramp
-/// again, with the same steps.
+/// deepest node comes out step by step (the reported depth counts the nodes the passes stopped
+/// testing) and is out by the ramp's end; a reset starts the ramp again, with the same steps.
 #[test]
 fn hair_starting_inside_comes_out_over_the_ramp() {
     let scene = Scene::load("wardlin").unwrap();
@@ -342,6 +342,10 @@ fn hair_starting_inside_comes_out_over_the_ramp() {
     );
     for k in 1..ramp {
         // Step k may leave at most (ramp - k - 1) / (ramp - 1) of what step 0 left.
+        assert!(
+            depths[k] <= depths[k - 1],
+            "step {k}: deeper than the step before; depths {depths:?}"
+        );
         let bound = depths[0] * (ramp - k - 1) as f64 / (ramp - 1) as f64 + tolerance;
         assert!(
             depths[k] <= bound,
