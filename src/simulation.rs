@@ -912,15 +912,12 @@ impl Simulation {
     /// the way it reached at the start of that step, and never more than it was allowed the step
     /// before, so whatever pushes it back in, it is held to the ramp; a node next to one still
     /// allowed inside is allowed that, less the segment between them. Every other node, including
-    /// one that reaches the body during the ramp, is resolved at once. (Before, each pass of a
-    /// ramp step moved every node `1 / (steps left)` of its depth and the passes compounded: the
-    /// hair came out almost entirely in the first step, and every contact made during the ramp
-    /// ran all [`MAX_BODY_PASSES`] passes, a second per step on `scenes/strands10k.ron`.) Passes
-    /// repeat on the skeletons they moved until none is deeper than the skin ([`CONTACT_SKIN`] of
-    /// the tolerance) beyond its allowance, or [`BODY_PASSES`] have run and no node is deeper than
-    /// half the tolerance beyond it, or [`MAX_BODY_PASSES`] have run; the last detection measures
-    /// what remains. Passes from
-    /// [`BODY_PASSES`] on use the exact distance, whatever the scene's method, once at most
+    /// one that reaches the body during the ramp, is resolved at once, so the ramp costs no more
+    /// passes than any other step. Passes repeat on the skeletons they moved until none is
+    /// deeper than the skin ([`CONTACT_SKIN`] of the tolerance) beyond its allowance, or
+    /// [`BODY_PASSES`] have run and no node is deeper than half the tolerance beyond it, or
+    /// [`MAX_BODY_PASSES`] have run; the depth returned is the deepest node centre left, counting
+    /// the nodes the passes stopped testing. Passes from [`BODY_PASSES`] on use the exact distance, whatever the scene's method, once at most
     /// [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose centre is still
     /// inside by more than half the tolerance to the nearest point of its sphere about its parent
     /// that clears the body ([`escape`]): lifting along the node's own normal can land it inside
@@ -931,11 +928,8 @@ impl Simulation {
             return Ok((0, 0.0));
         };
         let ramp = self.scene.collision.depenetration_steps as u64;
-        // A node that starts inside the body comes out linearly over the ramp's steps: at the
-        // end of step `k` its sphere may still reach `(ramp - k - 1) / (ramp - k)` of the way
-        // it reached at the start of the step, and never more than it was allowed at the end of
-        // the step before (so it is pushed back out to that, whatever else pushes it in). A node
-        // that was out, including one that reaches the body during the ramp, is resolved at once.
+        // The share of its reach into the body a node that started inside may keep at the end
+        // of this ramp step (see above).
         let in_ramp = self.steps < ramp;
         let keep = if in_ramp {
             (ramp - self.steps - 1) as Real / (ramp - self.steps) as Real

@@ -341,11 +341,11 @@ fn hair_starting_inside_comes_out_over_the_ramp() {
         depths[0]
     );
     for k in 1..ramp {
-        // Step k may leave at most (ramp - k - 1) / (ramp - 1) of what step 0 left.
         assert!(
             depths[k] <= depths[k - 1],
             "step {k}: deeper than the step before; depths {depths:?}"
         );
+        // Step k may leave at most (ramp - k - 1) / (ramp - 1) of what step 0 left.
         let bound = depths[0] * (ramp - k - 1) as f64 / (ramp - 1) as f64 + tolerance;
         assert!(
             depths[k] <= bound,

@@ -66,10 +66,7 @@ impl Default for GridConfig {
 /// The pair search's box and line of a section, its box grown by `slack`.
 #[inline(always)]
 fn placed(s: &Section, slack: Real) -> (PBox, Line) {
-    let (a, b) = match &s.shape {
-        Ssv::Line(l) => l.aabb(),
-        shape => shape.aabb(),
-    };
+    let (a, b) = s.shape.aabb();
     let pbox = PBox {
         lo: [a.x - slack, a.y - slack, a.z - slack],
         hi: [b.x + slack, b.y + slack, b.z + slack],
@@ -128,8 +125,6 @@ pub struct Grid {
     /// stale: an LSS is rebuilt from its line in `packed`, so that the rebuild does not copy
     /// every shape).
     shapes: Vec<Ssv>,
-    /// Growth of the bounding boxes: half the margin plus the rounding slack.
-    slack: Real,
     entries: usize,
     /// Dense path: after the scatter, `prefix[k]` is the end of box cell `k` in `sorted_items`.
     dense: bool,
@@ -668,7 +663,6 @@ impl Grid {
             dims: [0; 3],
             chunks: Vec::new(),
             n_chunks: 0,
-            slack: 0.0,
             shapes: Vec::new(),
             entries: 0,
             dense: false,
@@ -726,12 +720,20 @@ impl Grid {
         &self.packed.boxes[self.packed.rank[i] as usize]
     }
 
-    /// The volume of section `i` (`i < len`): an LSS is rebuilt, bit for bit, from its line.
+    /// The volume of section `i` (`i < len`).
     #[inline]
     pub(crate) fn shape_at(&self, i: usize) -> Ssv {
-        let l = &self.packed.lines[self.packed.rank[i] as usize];
+        self.packed_shape(self.packed.rank[i] as usize)
+    }
+
+    /// The volume of the section at internal index `a` (its place in the pair search's order):
+    /// an LSS is rebuilt, bit for bit, from its line, which lies near the other lines the search
+    /// reads (the caller's shapes are not kept).
+    #[inline]
+    pub(crate) fn packed_shape(&self, a: usize) -> Ssv {
+        let l = &self.packed.lines[a];
         if l[6].is_nan() {
-            self.shapes[i]
+            self.shapes[self.packed.order[a] as usize]
         } else {
             Ssv::Line(hair_ssv::Lss::new(
                 Point::new(l[0], l[1], l[2]),
@@ -944,7 +946,6 @@ impl Grid {
         let inv = self.inv;
         let grow = f64::from(margin) * 0.5;
         let slack = (grow + EPS_CELLS * f64::from(h)) as Real;
-        self.slack = slack;
         self.len = sections.len();
         if sections.is_empty() {
             return Ok(());
@@ -1110,14 +1111,15 @@ impl Grid {
         }
         self.entries = self.chunks[..n_chunks].iter().map(|c| c.keys.len()).sum();
         self.sort_entries();
-        self.pack(sections);
+        self.pack(sections, slack);
         Ok(())
     }
 
     /// Copies the section data into the pair search's order (by first cell, then by index; a
-    /// counting sort over the cells) and renumbers the entries. On the dense path the sort and
-    /// the renumbering were done with the entries ([`Grid::sort_entries`]).
-    fn pack(&mut self, sections: &[Section]) {
+    /// counting sort over the cells), each box grown by `slack`, and renumbers the entries. On
+    /// the dense path the sort and the renumbering were done with the entries
+    /// ([`Grid::sort_entries`]).
+    fn pack(&mut self, sections: &[Section], slack: Real) {
         let n = self.len;
         if !self.dense {
             let n_cells = self.cell_keys.len();
@@ -1161,7 +1163,7 @@ impl Grid {
         let pk = &mut self.packed;
         pk.boxes.resize(n, PBox::default());
         pk.lines.resize(n, [0.0; 8]);
-        let (order, slack) = (&pk.order, self.slack);
+        let order = &pk.order;
         pk.boxes
             .par_chunks_mut(CHUNK)
             .zip(pk.lines.par_chunks_mut(CHUNK))

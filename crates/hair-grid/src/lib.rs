@@ -206,15 +206,16 @@
 //! bench scene). The pack now reads the caller's sections directly in the search's order, both
 //! cache lines a section may straddle fetched ahead, and an LSS reads back from its core in the
 //! search's data (`Grid::shape` returns it by value); only the few shapes that are not an LSS
-//! are kept. The pack got slower (about 2.0 to 2.6 ms: two lines per section instead of one),
-//! the covers faster by more (about 5.2 to 4.3 ms). `grid_profile build 15`, alternated with
-//! the commit before over eight rounds: fastest of 15 rebuilds 13.75 ms before and 12.8 ms after
-//! (medians of the rounds). Measured and dropped with it: writing each section's box and core at
-//! its rank from the scatter, which reads the sections in their own order (scattered writes of
-//! two lines per section: the scatter went from 3.3 to 8-12 ms); counting the entries per box
-//! cell as each chunk is covered, with the box taken from a pass over the sections' boxes (that
-//! pass cost 1.3 ms more than it saved) or from the last rebuild's box (no change: 12.4-12.8
-//! against 12.5-13.3 ms, alternated).
+//! are kept. The pack reads two lines per section instead of one, and the covers write far less.
+//! `grid_profile build 15`, alternated with the commit before over eight rounds: fastest of 15
+//! rebuilds 13.75 ms before and 12.8 ms after (medians of the rounds). Measured the same way and
+//! dropped (the code is not kept, so these figures are a record, not something to rerun):
+//! writing each section's box and core at its rank from the scatter, which reads the sections
+//! in their own order (scattered writes of two lines per section: rebuilds of 15.6-16.2 ms
+//! against 13.4-13.7); counting the entries per box cell as each chunk is covered, with the box
+//! taken from a pass over the sections' boxes (medians 13.9 against 12.65 ms: the pass cost
+//! more than it saved) or from the last rebuild's box (no change: 12.4-12.8 against 12.5-13.3
+//! ms).
 //!
 //! Output orders are deterministic: the same input gives the same cells, sections and pairs in the
 //! same order for any number of rayon threads. No hashing with random state is used: cells are

@@ -690,25 +690,8 @@ impl Grid {
         } else {
             (b, a)
         };
-        // Two LSS are rebuilt from their lines, which sit near each other in the search's
-        // order (the shapes, in the caller's order, would be two cache misses).
-        let lss = |i: u32| {
-            let l = &self.packed.lines[i as usize];
-            (!l[6].is_nan()).then(|| {
-                Ssv::Line(hair_ssv::Lss::new(
-                    crate::Point::new(l[0], l[1], l[2]),
-                    crate::Point::new(l[3], l[4], l[5]),
-                    l[6],
-                ))
-            })
-        };
-        match (lss(a), lss(b)) {
-            (Some(p), Some(q)) => p.distance(&q) <= margin,
-            _ => {
-                let (i, j) = (order[a as usize] as usize, order[b as usize] as usize);
-                self.shape_at(i).distance(&self.shape_at(j)) <= margin
-            }
-        }
+        let (p, q) = (self.packed_shape(a as usize), self.packed_shape(b as usize));
+        p.distance(&q) <= margin
     }
 
     /// Whether the cell `key`, covered by the sections of internal indices `a` and `b`, is the
