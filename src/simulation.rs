@@ -973,6 +973,10 @@ impl Simulation {
         // refit: without this skin every pass found a few hundred nodes a few nanometres in and
         // ran all its passes to move them by nothing.
         let skin = CONTACT_SKIN * self.scene.collision.tolerance;
+        // Every pass's contacts lose their approach velocity once, after the last pass, in pass
+        // order: the passes test positions only, and one call refreshes each touched skeleton's
+        // velocities once instead of once a pass.
+        self.constraints.clear();
         for pass in 0..=MAX_BODY_PASSES {
             let positions = self.state.positions();
             // The late passes, once few nodes are still moving, query the exact distance: an
@@ -993,7 +997,6 @@ impl Simulation {
                 })
                 .collect_into_vec(&mut self.body_hits);
             self.corrections.clear();
-            self.constraints.clear();
             deepest = 0.0;
             // The deepest node centre beyond what the ramp allows it: the passes stop when it is
             // out.
@@ -1089,15 +1092,10 @@ impl Simulation {
             let done = self.corrections.is_empty()
                 || pass == MAX_BODY_PASSES
                 || (pass >= BODY_PASSES && deepest_free <= tolerance);
-            if !done {
-                self.state.apply_corrections(&self.corrections)?;
-            }
-            if !self.constraints.is_empty() {
-                self.state.apply_velocity_constraints(&self.constraints)?;
-            }
             if done {
                 break;
             }
+            self.state.apply_corrections(&self.corrections)?;
             // The refit moves a skeleton's nodes from its first corrected one on; the nodes
             // before it stay where this pass found them: out of the body, or (on the ramp)
             // within their allowance, which the depth reported at the end still counts.
@@ -1109,6 +1107,9 @@ impl Simulation {
             }
             self.body_nodes
                 .retain(|bn| bn.node >= first_moved[bn.skeleton as usize]);
+        }
+        if !self.constraints.is_empty() {
+            self.state.apply_velocity_constraints(&self.constraints)?;
         }
         Ok((contacts, deepest.max(settled).max(0.0)))
     }
