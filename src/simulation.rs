@@ -917,11 +917,13 @@ impl Simulation {
     /// deeper than the skin ([`CONTACT_SKIN`] of the tolerance) beyond its allowance, or
     /// [`BODY_PASSES`] have run and no node is deeper than half the tolerance beyond it, or
     /// [`MAX_BODY_PASSES`] have run; the depth returned is the deepest node centre left, counting
-    /// the nodes the passes stopped testing. Passes from [`BODY_PASSES`] on use the exact distance, whatever the scene's method, once at most
-    /// [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose centre is still
-    /// inside by more than half the tolerance to the nearest point of its sphere about its parent
-    /// that clears the body ([`escape`]): lifting along the node's own normal can land it inside
-    /// again where the body is thin (an ear) or creased, pass after pass. Returns the nodes in
+    /// the nodes the passes stopped testing. Passes from [`BODY_PASSES`] on use the exact
+    /// distance, whatever the scene's method, once at most [`EXACT_LATE_NODES`] nodes are left;
+    /// after the ramp they send a node whose centre is still inside by more than half the
+    /// tolerance to the nearest point of its sphere about its parent that clears the body
+    /// ([`escape`]): lifting along the node's own normal can land it inside again where the body
+    /// is thin (an ear) or creased, pass after pass. The contacts of every pass lose their
+    /// approach velocity once, after the last pass. Returns the nodes in
     /// contact on the first pass and the deepest node centre left inside the body (m).
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
@@ -973,9 +975,8 @@ impl Simulation {
         // refit: without this skin every pass found a few hundred nodes a few nanometres in and
         // ran all its passes to move them by nothing.
         let skin = CONTACT_SKIN * self.scene.collision.tolerance;
-        // Every pass's contacts lose their approach velocity once, after the last pass, in pass
-        // order: the passes test positions only, and one call refreshes each touched skeleton's
-        // velocities once instead of once a pass.
+        // The passes test positions only, so the velocity constraints of every pass wait for the
+        // last one, in pass order: one refresh of each touched skeleton instead of one a pass.
         self.constraints.clear();
         for pass in 0..=MAX_BODY_PASSES {
             let positions = self.state.positions();
@@ -1099,14 +1100,14 @@ impl Simulation {
             // The refit moves a skeleton's nodes from its first corrected one on; the nodes
             // before it stay where this pass found them: out of the body, or (on the ramp)
             // within their allowance, which the depth reported at the end still counts.
-            let first_moved = &self.first_moved;
-            for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
-                if let (true, Some((d, _))) = (bn.node < first_moved[bn.skeleton as usize], hit) {
+            let (first_moved, mut hits) = (&self.first_moved, self.body_hits.iter());
+            self.body_nodes.retain(|bn| {
+                let moved = bn.node >= first_moved[bn.skeleton as usize];
+                if let (false, Some(Some((d, _)))) = (moved, hits.next()) {
                     settled = settled.max(-d);
                 }
-            }
-            self.body_nodes
-                .retain(|bn| bn.node >= first_moved[bn.skeleton as usize]);
+                moved
+            });
         }
         if !self.constraints.is_empty() {
             self.state.apply_velocity_constraints(&self.constraints)?;
