@@ -102,10 +102,10 @@ pub struct Simulation {
     /// Hair-hair pushes per node: their sum and their number (zero between steps).
     node_push: Vec<(Vector, u32)>,
     constraints: Vec<VelocityConstraint>,
-    pair_list: Vec<[u32; 2]>,
     /// The sections as the hair-hair response reads them, one cache line each.
     contact_sections: Vec<ContactSection>,
-    pair_responses: Vec<PairResponse>,
+    /// The hair-hair narrow phase's decisions, one buffer per chunk of the pair set.
+    responses: Vec<ResponseChunk>,
     body_nodes: Vec<BodyNode>,
     /// Per skeleton, the first node the hard constraint moved in this pass (`u32::MAX`: none).
     first_moved: Vec<u32>,
@@ -276,9 +276,8 @@ impl Simulation {
             corrections: Vec::new(),
             node_push: Vec::new(),
             constraints: Vec::new(),
-            pair_list: Vec::new(),
             contact_sections: Vec::new(),
-            pair_responses: Vec::new(),
+            responses: Vec::new(),
             body_nodes: Vec::new(),
             first_moved: Vec::new(),
             body_hits: Vec::new(),
@@ -735,8 +734,6 @@ impl Simulation {
         if self.scene.collision.hair_hair {
             self.grid.overlapping_pairs_by_rank(&mut self.pairs);
             stats.pairs_tested = self.pairs.len();
-            self.pair_list.clear();
-            self.pair_list.extend(self.pairs.iter());
             let cos_parallel = self.scene.collision.parallel_angle.cos();
             // In the pair search's order, so that the pairs, which come cell by cell, read
             // nearby records.
@@ -762,56 +759,74 @@ impl Simulation {
                         segment,
                     }
                 }));
-            let sections = &self.contact_sections;
-            self.pair_list
-                .par_iter()
-                .map(|&[a, b]| {
-                    let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
-                    if !(sa.segment && sb.segment && (sa.active || sb.active)) {
-                        return PairResponse::None;
+            // The narrow phase, chunk by chunk of the pair set (its chunks do not depend on the
+            // thread count), into short records: the shares' two nodes, the pushes' nodes and
+            // vector.
+            let chunks = self.pairs.chunk_count();
+            if self.responses.len() < chunks {
+                self.responses.resize_with(chunks, ResponseChunk::default);
+            }
+            let (pairs, sections) = (&self.pairs, &self.contact_sections);
+            self.responses[..chunks]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(c, out)| {
+                    out.shares.clear();
+                    out.pushes.clear();
+                    for &[a, b] in pairs.chunk(c) {
+                        let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
+                        if !(sa.segment && sb.segment && (sa.active || sb.active)) {
+                            continue;
+                        }
+                        if sa.tangent.dot(&sb.tangent).abs() >= cos_parallel {
+                            out.shares.push([sa.node, sb.node]);
+                            continue;
+                        }
+                        let c = hair_ssv::query::segment_segment(&sa.a, &sa.b, &sb.a, &sb.b);
+                        let d = c.on_b - c.on_a;
+                        let dist = d.norm();
+                        let overlap = sa.radius + sb.radius - dist;
+                        if overlap > 0.0 && dist > 1e-9 {
+                            out.pushes
+                                .push((sa.node, sb.node, d * (0.5 * overlap / dist)));
+                        }
                     }
-                    if sa.tangent.dot(&sb.tangent).abs() >= cos_parallel {
-                        return PairResponse::Share(sa.node, sb.node);
-                    }
-                    let c = hair_ssv::query::segment_segment(&sa.a, &sa.b, &sb.a, &sb.b);
-                    let d = c.on_b - c.on_a;
-                    let dist = d.norm();
-                    let overlap = sa.radius + sb.radius - dist;
-                    if overlap > 0.0 && dist > 1e-9 {
-                        PairResponse::Push(sa.node, sb.node, d * (0.5 * overlap / dist))
-                    } else {
-                        PairResponse::None
-                    }
-                })
-                .collect_into_vec(&mut self.pair_responses);
+                });
+            let responses = &self.responses[..chunks];
+            stats.hair_contacts += responses
+                .iter()
+                .map(|r| r.shares.len() + r.pushes.len())
+                .sum::<usize>();
             self.corrections.clear();
             self.node_push
                 .resize(self.state.node_count(), (Vector::zeros(), 0));
-            for r in &self.pair_responses {
-                match *r {
-                    PairResponse::None => {}
-                    PairResponse::Share(a, b) => {
-                        stats.hair_contacts += 1;
+            // Shares change only the rates and pushes only the push sums: each kind applied in
+            // pair order, the two side by side, gives the state of applying them interleaved.
+            let (theta, phi) = self.state.rates_mut();
+            let node_push = &mut self.node_push;
+            rayon::join(
+                || {
+                    for &[a, b] in responses.iter().flat_map(|r| &r.shares) {
                         // The mean never raises the sum of squared rates: no energy is added.
                         let (a, b) = (a as usize, b as usize);
-                        let mean_t =
-                            0.5 * (self.state.omega_theta()[a] + self.state.omega_theta()[b]);
-                        let mean_p = 0.5 * (self.state.omega_phi()[a] + self.state.omega_phi()[b]);
-                        self.state.omega_theta_mut()[a] = mean_t;
-                        self.state.omega_theta_mut()[b] = mean_t;
-                        self.state.omega_phi_mut()[a] = mean_p;
-                        self.state.omega_phi_mut()[b] = mean_p;
+                        let mean_t = 0.5 * (theta[a] + theta[b]);
+                        let mean_p = 0.5 * (phi[a] + phi[b]);
+                        theta[a] = mean_t;
+                        theta[b] = mean_t;
+                        phi[a] = mean_p;
+                        phi[b] = mean_p;
                     }
-                    PairResponse::Push(a, b, half) => {
-                        stats.hair_contacts += 1;
+                },
+                || {
+                    for &(a, b, half) in responses.iter().flat_map(|r| &r.pushes) {
                         let (a, b) = (a as usize, b as usize);
-                        self.node_push[a].0 -= half;
-                        self.node_push[a].1 += 1;
-                        self.node_push[b].0 += half;
-                        self.node_push[b].1 += 1;
+                        node_push[a].0 -= half;
+                        node_push[a].1 += 1;
+                        node_push[b].0 += half;
+                        node_push[b].1 += 1;
                     }
-                }
-            }
+                },
+            );
             // One correction per pushed node (a section has dozens of neighbours in dense hair):
             // its pairs' pushes summed in pair order, or their mean (`PushCombine`).
             let mean = self.scene.collision.hair_hair_push == crate::scene::PushCombine::Mean;
@@ -1348,16 +1363,14 @@ struct ContactSection {
     segment: bool,
 }
 
-/// What the narrow phase decides for one hair-hair pair.
-#[derive(Clone, Copy, Debug)]
-enum PairResponse {
-    /// Not in contact, or both skeletons frozen.
-    None,
+/// The hair-hair narrow phase's decisions for one chunk of the pair set, in pair order.
+#[derive(Debug, Default)]
+struct ResponseChunk {
     /// Near-parallel sections in contact: their joints share their rates.
-    Share(u32, u32),
+    shares: Vec<[u32; 2]>,
     /// Crossing sections overlapping: the second node's push, half the overlap along the line
     /// between the closest points (the first is pushed the opposite way).
-    Push(u32, u32, Vector),
+    pushes: Vec<(u32, u32, Vector)>,
 }
 
 fn any_perpendicular(n: &Vector) -> Vector {

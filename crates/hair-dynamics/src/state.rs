@@ -176,6 +176,14 @@ impl StrandState {
         Self::default()
     }
 
+    /// The joints' angular rates about both axes at once (`omega_theta`, `omega_phi`), for a
+    /// caller that updates them together.
+    ///
+    /// Mutable: values are read at the next step; keep them finite.
+    pub fn rates_mut(&mut self) -> (&mut [Real], &mut [Real]) {
+        (&mut self.omega_theta, &mut self.omega_phi)
+    }
+
     /// Adds a skeleton at rest and returns its handle.
     pub fn add_skeleton(&mut self, desc: &SkeletonDesc) -> Result<SkeletonId, DynamicsError> {
         let skeleton = self.offsets.len();

@@ -287,6 +287,18 @@ impl PairSet {
         self.chunks[..self.used].iter().map(|c| c.pairs.as_slice())
     }
 
+    /// Number of chunks ([`PairSet::chunks`]).
+    pub fn chunk_count(&self) -> usize {
+        self.used
+    }
+
+    /// Chunk `i` of [`PairSet::chunks`] (empty past the last), for consumers that index them.
+    pub fn chunk(&self, i: usize) -> &[[u32; 2]] {
+        self.chunks[..self.used]
+            .get(i)
+            .map_or(&[], |c| c.pairs.as_slice())
+    }
+
     /// All pairs in order.
     pub fn iter(&self) -> impl Iterator<Item = [u32; 2]> + '_ {
         self.chunks().flat_map(|c| c.iter().copied())

@@ -27,6 +27,12 @@ fn check(secs: &[Section], config: GridConfig) -> Result<(), TestCaseError> {
     }
     let mut exact = PairSet::new();
     grid.overlapping_pairs(&mut exact);
+    // The chunks by index are the pairs in order.
+    let by_index: Vec<[u32; 2]> = (0..exact.chunk_count())
+        .flat_map(|i| exact.chunk(i).iter().copied())
+        .collect();
+    prop_assert_eq!(&by_index, &exact.to_vec());
+    prop_assert!(exact.chunk(exact.chunk_count()).is_empty());
     let mut got = exact.to_vec();
     got.sort_unstable();
     prop_assert_eq!(got, brute);
