@@ -737,10 +737,11 @@ impl Simulation {
             let cos_parallel = self.scene.collision.parallel_angle.cos();
             // In the pair search's order, so that the pairs, which come cell by cell, read
             // nearby records.
-            self.contact_sections.clear();
             let (state, sections, nodes) = (&self.state, &self.sections, &self.section_node);
-            self.contact_sections
-                .extend(self.grid.search_order().iter().map(|&i| {
+            self.grid
+                .search_order()
+                .par_iter()
+                .map(|&i| {
                     let (s, i) = (&sections[i as usize], i as usize);
                     // Every section built above is a segment; any other shape gets no response.
                     let (line, segment) = match s.shape {
@@ -758,7 +759,8 @@ impl Simulation {
                         active: state.is_active(SkeletonId(s.skeleton)),
                         segment,
                     }
-                }));
+                })
+                .collect_into_vec(&mut self.contact_sections);
             // The narrow phase, chunk by chunk of the pair set (its chunks do not depend on the
             // thread count), into short records: the shares' two nodes, the pushes' nodes and
             // vector.
