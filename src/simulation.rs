@@ -772,10 +772,10 @@ impl Simulation {
             self.responses[..chunks]
                 .par_iter_mut()
                 .enumerate()
-                .for_each(|(c, out)| {
+                .for_each(|(chunk, out)| {
                     out.shares.clear();
                     out.pushes.clear();
-                    for &[a, b] in pairs.chunk(c) {
+                    for &[a, b] in pairs.chunk(chunk) {
                         let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
                         if !(sa.segment && sb.segment && (sa.active || sb.active)) {
                             continue;
