@@ -497,32 +497,25 @@ impl Grid {
             cols,
             cand,
             n_cand,
-            blocks,
             sweep,
+            ..
         } = chunk;
         let (ents, earlier) = (&pk.items[range.clone()], &self.entry_earlier[range]);
-        let cell = if m >= SWEEP_MIN {
+        let sweep = (m >= SWEEP_MIN).then(|| {
             sweep.sort(&pk.boxes, ents, earlier);
-            CellEntries {
-                key: self.cell_keys[c],
-                ents: &sweep.ents,
-                earlier: &sweep.earlier,
-                sweep: Some(sweep),
-            }
-        } else {
-            CellEntries {
-                key: self.cell_keys[c],
-                ents,
-                earlier,
-                sweep: None,
-            }
+            &*sweep
+        });
+        let cell = CellEntries {
+            key: self.cell_keys[c],
+            ents: sweep.map_or(ents, |s| &s.ents),
+            earlier: sweep.map_or(earlier, |s| &s.earlier),
+            sweep,
         };
         #[cfg(target_arch = "x86_64")]
         if WIDE {
-            self.cell_pairs_wide(&cell, blocks, pairs, cand, n_cand, report);
+            self.cell_pairs_wide(&cell, &mut chunk.blocks, pairs, cand, n_cand, report);
             return;
         }
-        let _ = blocks;
         let (ents, earlier) = (cell.ents, cell.earlier);
         // Gather the cell's sections into columns.
         if cols.skel.len() < m + PAD {
@@ -1931,30 +1924,9 @@ mod tests {
         }
     }
 
-    /// A wisp of near-parallel strands of 5 cm sections, as in a simulation's dense hair: cells
-    /// of hundreds of sections, searched as sweeps.
-    fn wisp(strands: u32, z: &mut u64) -> Vec<Section> {
-        let mut sections = Vec::new();
-        for s in 0..strands {
-            let mut p = Point::new(lcg(z), 0.0, lcg(z)) * 0.03;
-            for k in 0..6 {
-                let d = Point::new(lcg(z) - 0.5, 2.0, lcg(z) - 0.5) * 0.025;
-                let q = Point::from(p.coords + d.coords);
-                sections.push(Section {
-                    skeleton: s,
-                    segment: k,
-                    shape: Ssv::Line(Lss::new(p, q, 0.002)),
-                });
-                p = q;
-            }
-        }
-        sections
-    }
-
     #[test]
     fn crowded_cells_are_swept_keeping_every_pair_in_one_order_for_every_kernel() {
-        let mut z = 5u64;
-        let sections = wisp(300, &mut z);
+        let sections = crate::test_scenes::wisp(300, 5);
         let config = GridConfig {
             margin: 0.001,
             ..GridConfig::default()

@@ -86,6 +86,28 @@ pub fn head_shell(segments: usize, per_strand: usize, seed: u64) -> Vec<Section>
     out
 }
 
+/// A wisp of `strands` near-parallel strands of six 5 cm sections (radius 1.5-2.5 mm) rooted in
+/// a 3 cm square and running down along y: dense hair as a simulation's wisps make it, whose
+/// cells hold hundreds of sections (the pair search sweeps them). The same seed gives the same
+/// sections.
+pub fn wisp(strands: u32, seed: u64) -> Vec<Section> {
+    let mut rng = Rng(seed);
+    let mut out = Vec::with_capacity(6 * strands as usize);
+    for s in 0..strands {
+        let mut p = Point::new(rng.unit(), 0.0, rng.unit()) * 0.03;
+        for k in 0..6 {
+            let q = p + Vector::new(rng.unit() - 0.5, 2.0, rng.unit() - 0.5) * 0.025;
+            out.push(Section {
+                skeleton: s,
+                segment: k,
+                shape: Ssv::Line(Lss::new(p, q, rng.range(0.0015, 0.0025))),
+            });
+            p = q;
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,6 +5,7 @@ mod common;
 use std::collections::BTreeSet;
 
 use common::{brute_pairs, sections};
+use hair_grid::test_scenes::wisp;
 use hair_grid::{Grid, GridConfig, GridError, PairSet, Section};
 use hair_ssv::{Lss, Point, Ssv};
 use proptest::prelude::*;
@@ -76,38 +77,12 @@ proptest! {
     }
 }
 
-/// A wisp of near-parallel strands of 5 cm sections (a simulation's dense hair): cells of
-/// hundreds of sections, which the search sorts and sweeps.
-fn wisp(seed: u64, strands: u32) -> Vec<Section> {
-    let mut z = seed;
-    let mut next = move || {
-        z = z
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (z >> 40) as f32 / (1u64 << 24) as f32
-    };
-    let mut out = Vec::new();
-    for s in 0..strands {
-        let mut p = Point::new(next(), 0.0, next()) * 0.03;
-        for k in 0..6 {
-            let q = p + hair_ssv::Vector::new(next() - 0.5, 2.0, next() - 0.5) * 0.025;
-            out.push(Section {
-                skeleton: s,
-                segment: k,
-                shape: Ssv::Line(Lss::new(p, q, 0.0015 + 0.001 * next())),
-            });
-            p = q;
-        }
-    }
-    out
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(6))]
 
     #[test]
     fn crowded_cells_keep_every_overlapping_pair(seed in any::<u64>(), strands in 150u32..260, margin in 0.0f32..0.004, skip in 0u32..2) {
-        check(&wisp(seed, strands), GridConfig { margin, skip_neighbours: skip, ..GridConfig::default() })?;
+        check(&wisp(strands, seed), GridConfig { margin, skip_neighbours: skip, ..GridConfig::default() })?;
     }
 }
 
