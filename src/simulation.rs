@@ -404,6 +404,12 @@ impl Simulation {
         Ok(())
     }
 
+    /// The localization grid as the last step rebuilt it: the front's hair sections (in the
+    /// head frame), their cells and the pair search's data.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
     /// The body, if any.
     pub fn body(&self) -> Option<&BodyModel> {
         self.body.as_ref()

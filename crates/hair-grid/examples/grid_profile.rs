@@ -13,7 +13,8 @@
 //! without the exact test ([`Grid::candidate_pairs`]), so that the exact test's share is the
 //! difference. With `HAIR_GRID_SECTIONS=FILE` it profiles the sections in `FILE` instead (per
 //! section, little endian: `a`, `b` and the radius as 7 `f32`, then skeleton and segment as 2
-//! `u32`), for instance a simulation's sections at one step.
+//! `u32`), for instance a simulation's sections at one step (the root crate's
+//! `examples/grid_sections.rs` writes them).
 use std::time::Instant;
 
 use hair_grid::test_scenes::head_shell;
