@@ -41,12 +41,43 @@ pub(crate) fn transport_frames_into(
         if k > 0 {
             // The same minimal rotation between tangents as the strand kinematics uses.
             if let Some(t) = (points[k] - points[k - 1]).try_normalize(1e-12) {
-                let (x, y) = hair_dynamics::bend_between(&(frame.transpose() * t));
-                frame *= hair_dynamics::Bend::new(x, y).rotation;
+                frame *= minimal_rotation(&(frame.transpose() * t));
             }
         }
         *o = frame;
     }
+}
+
+/// The rotation that turns `+z` into the unit vector `t` about `z x t`: the bend
+/// `hair_dynamics::bend_between(t)` (the strand kinematics' minimal rotation between tangents),
+/// written without its angle. With `k = 1 / (1 + t_z)`, Rodrigues' formula gives
+/// `[[1 - k tx^2, -k tx ty, tx], [-k tx ty, 1 - k ty^2, ty], [-tx, -ty, tz]]`: no arctangent and no
+/// sine or cosine, which were most of the cost of the render frames. For `t_z < 0`, `k` is taken
+/// as `(1 - t_z) / (tx^2 + ty^2)`, the same for a unit vector but without the cancellation in
+/// `1 + t_z`; a fold straight back takes the bend's own form.
+#[inline]
+pub(crate) fn minimal_rotation(t: &nalgebra::Vector3<Real>) -> Matrix3<Real> {
+    let side = t.x * t.x + t.y * t.y;
+    let k = if t.z >= 0.0 {
+        1.0 / (1.0 + t.z)
+    } else if side > 1e-12 {
+        (1.0 - t.z) / side
+    } else {
+        let (x, y) = hair_dynamics::bend_between(t);
+        return hair_dynamics::Bend::new(x, y).rotation;
+    };
+    let kxy = -k * t.x * t.y;
+    Matrix3::new(
+        1.0 - k * t.x * t.x,
+        kxy,
+        t.x,
+        kxy,
+        1.0 - k * t.y * t.y,
+        t.y,
+        -t.x,
+        -t.y,
+        t.z,
+    )
 }
 
 /// Catmull-Rom through `control` with `sub` points per segment, into `out` (appended).
@@ -112,5 +143,43 @@ impl RenderGeometry {
     /// The output polyline of strand `s`.
     pub fn strand(&self, s: usize) -> &[Point] {
         &self.positions[self.offsets[s] as usize..self.offsets[s + 1] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn the_minimal_rotation_is_the_strands_bend() {
+        // Tangents all around the sphere: near +z, near -z (the bend's own form) and between.
+        let mut worst: Real = 0.0;
+        for i in 0..=40 {
+            for j in 0..24 {
+                let polar = std::f32::consts::PI * (i as Real / 40.0).min(0.99999);
+                let az = std::f32::consts::TAU * j as Real / 24.0;
+                let t = Vector3::new(polar.sin() * az.cos(), polar.sin() * az.sin(), polar.cos());
+                let (x, y) = hair_dynamics::bend_between(&t);
+                let bend = hair_dynamics::Bend::new(x, y).rotation;
+                let r = minimal_rotation(&t);
+                worst = worst.max((r - bend).abs().max());
+                // It turns +z into t, and it is a rotation.
+                assert!((r * Vector3::z() - t).norm() < 1e-6, "{t:?}");
+                assert!(
+                    (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-5,
+                    "{t:?}"
+                );
+                assert!((r.determinant() - 1.0).abs() < 1e-5, "{t:?}");
+            }
+        }
+        assert!(worst < 2e-6, "largest difference from the bend: {worst}");
+        // Folded straight back: the bend's own half turn about x.
+        let back = Vector3::new(0.0, 0.0, -1.0);
+        let (x, y) = hair_dynamics::bend_between(&back);
+        assert_eq!(
+            minimal_rotation(&back),
+            hair_dynamics::Bend::new(x, y).rotation
+        );
     }
 }

@@ -129,6 +129,12 @@ pub struct Simulation {
     strand_local: Vec<Vector>,
     /// Where the offsets of each strand from its current front node start.
     strand_slot: Vec<u32>,
+    /// The strands grouped by front node (in the front's order), and each strand's place in
+    /// that order: the render pass reads each skeleton's nodes once for all its strands.
+    strand_order: Vec<u32>,
+    strand_rank: Vec<u32>,
+    /// The strands' curves in `strand_order`, before they are copied out in strand order.
+    render_scratch: Vec<Point>,
     points_per_strand: usize,
     adaptive: Option<AdaptiveLod>,
     last_lod: TransitionReport,
@@ -294,6 +300,9 @@ impl Simulation {
             node_local_start: Vec::new(),
             strand_local: Vec::new(),
             strand_slot: Vec::new(),
+            strand_order: Vec::new(),
+            strand_rank: Vec::new(),
+            render_scratch: Vec::new(),
             adaptive: None,
             last_lod: TransitionReport::default(),
             initial_adaptive: None,
@@ -552,12 +561,23 @@ impl Simulation {
         let n_strands = h.strand_total();
         self.strand_node.resize(n_strands, 0);
         self.strand_slot.resize(n_strands, 0);
+        self.strand_order.clear();
         for &node in &self.front_nodes {
             let start = self.node_local_start[node as usize];
             for (j, &s) in h.strands(node).iter().enumerate() {
                 self.strand_node[s as usize] = node;
                 self.strand_slot[s as usize] = start + j as u32 * per;
+                self.strand_order.push(s);
             }
+        }
+        // A front covers every strand once; were it not so, strand order is still correct.
+        if self.strand_order.len() != n_strands {
+            self.strand_order.clear();
+            self.strand_order.extend(0..n_strands as u32);
+        }
+        self.strand_rank.resize(n_strands, 0);
+        for (k, &s) in self.strand_order.iter().enumerate() {
+            self.strand_rank[s as usize] = k as u32;
         }
         self.front_ranges.clear();
         let state = &self.state;
@@ -1209,11 +1229,18 @@ impl Simulation {
         // The teleport offset moves the drawn hair with the head, never the dynamics.
         let rot = self.teleport.rotation.to_rotation_matrix() * head.rotation;
         let origin = self.teleport * head.position;
-        self.render
-            .positions
+        // Curves in the front's order first: consecutive strands then share their skeleton's
+        // nodes and frames, where strand order reads them from all over the state (a strand's
+        // neighbours in number almost never share its skeleton). Then copied out in strand
+        // order, one contiguous run per strand.
+        let order = &self.strand_order;
+        self.render_scratch
+            .resize(n_strands * verts, Point::origin());
+        self.render_scratch
             .par_chunks_mut(verts)
-            .enumerate()
-            .for_each(|(s, out)| {
+            .zip(order.par_iter())
+            .for_each(|(out, &s)| {
+                let s = s as usize;
                 let node = strand_node[s];
                 let r = state.nodes(SkeletonId(node));
                 let p = &state.positions()[r.clone()];
@@ -1225,6 +1252,15 @@ impl Simulation {
                         origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
                 }
                 catmull_rom_into(&control[..count], sub, out);
+            });
+        let (scratch, rank) = (&self.render_scratch, &self.strand_rank);
+        self.render
+            .positions
+            .par_chunks_mut(verts)
+            .zip(rank.par_iter())
+            .for_each(|(out, &k)| {
+                let k = k as usize * verts;
+                out.copy_from_slice(&scratch[k..k + verts]);
             });
     }
 }
