@@ -72,8 +72,9 @@ fn aim(rot: &Matrix3<Real>, from: &Point, target: &Point, keep: (Real, Real)) ->
 
 /// [`fit_angles`] on skeleton `s` (nodes `r` of `run`), then its node positions and velocities
 /// from the new angles, in one pass: the same arithmetic as `fit_angles` followed by
-/// `Run::refresh`, with each bend evaluated once instead of twice.
-fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point]) {
+/// `Run::refresh`, with each bend evaluated once instead of twice. Node `k` of the skeleton aims
+/// at `targets[k]` where `moved[k]`, else at where it is.
+fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point], moved: &[bool]) {
     let root = &run.roots[s - run.first];
     let mut rot = root.rotation;
     let mut position = root.position;
@@ -85,8 +86,14 @@ fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point
     let mut omega = Vector::zeros();
     run.positions[r.start] = position;
     run.velocities[r.start] = velocity;
-    for (target, i) in targets.iter().zip(r.clone()).skip(1) {
-        let (x, y) = aim(&rot, &position, target, (run.theta[i], run.phi[i]));
+    for (k, i) in r.clone().enumerate().skip(1) {
+        // Node `i` is read before it is written below, and later nodes are not yet written.
+        let target = if moved[k] {
+            targets[k]
+        } else {
+            run.positions[i]
+        };
+        let (x, y) = aim(&rot, &position, &target, (run.theta[i], run.phi[i]));
         run.theta[i] = x;
         run.phi[i] = y;
         let bend = Bend::new(x, y);
@@ -178,29 +185,47 @@ impl StrandState {
             }
             crate::error::finite_vec("correction.delta", &c.delta)?;
         }
+        // Only the corrected nodes get a target; the others aim where they are. (Copying every
+        // position into the targets cost as much as a small refit, pass after pass.)
         let mut targets = std::mem::take(&mut self.target_scratch);
-        targets.clear();
-        targets.extend_from_slice(&self.positions);
+        let mut moved = std::mem::take(&mut self.moved_scratch);
+        if moved.len() < count {
+            moved.resize(count, false);
+            targets.resize(count, Point::origin());
+        }
         for c in corrections {
-            targets[c.node as usize] += c.delta;
+            let i = c.node as usize;
+            if !moved[i] {
+                moved[i] = true;
+                targets[i] = self.positions[i];
+            }
+            targets[i] += c.delta;
         }
         let mut touched = std::mem::take(&mut self.touched_scratch);
         self.touched_skeletons(corrections.iter().map(|c| c.node), &mut touched);
         // Skeletons are independent: refit them in parallel.
         let (run, offsets, counts) = self.run_with_layout();
-        let targets_ref = &targets;
-        let touched_ref = &touched;
+        let (targets_ref, moved_ref, touched_ref) = (&targets, &moved, &touched);
         for_each_skeleton(run, &touched, offsets, &|run, k| {
             let s = touched_ref[k] as usize;
             let r = run.local_nodes(s, offsets, counts);
             let g = offsets[s] as usize..offsets[s] as usize + r.len();
+            let here = run.positions[r.start];
             let root = &mut run.roots[s - run.first];
             if root.free {
                 // A free root follows its correction like any node.
-                root.position = targets_ref[g.start];
+                root.position = if moved_ref[g.start] {
+                    targets_ref[g.start]
+                } else {
+                    here
+                };
             }
-            refit_skeleton(run, s, r, &targets_ref[g]);
+            refit_skeleton(run, s, r, &targets_ref[g.clone()], &moved_ref[g]);
         });
+        for c in corrections {
+            moved[c.node as usize] = false;
+        }
+        self.moved_scratch = moved;
         self.target_scratch = targets;
         self.touched_scratch = touched;
         Ok(())

@@ -144,7 +144,10 @@ pub struct StrandState {
     pub(crate) steps: u64,
     pub(crate) bonds: Vec<crate::Bond>,
     pub(crate) force_scratch: Vec<Vector>,
+    /// Per node, a response's target; read only where `moved_scratch` is set (which is all
+    /// false between responses).
     pub(crate) target_scratch: Vec<Point>,
+    pub(crate) moved_scratch: Vec<bool>,
     pub(crate) touched_scratch: Vec<u32>,
     /// The skeleton owning each node slot (nodes are only ever appended, a skeleton at a time).
     pub(crate) node_skeleton: Vec<u32>,
