@@ -13,8 +13,8 @@ use std::cell::RefCell;
 use std::ops::Range;
 
 thread_local! {
-    /// World axes `(x, y)` of each joint of the skeleton being constrained, by node.
-    static JOINT_AXES: RefCell<Vec<(Vector, Vector)>> = const { RefCell::new(Vec::new()) };
+    /// The constraints on the skeleton being constrained, sorted by node.
+    static BY_NODE: RefCell<Vec<u32>> = const { RefCell::new(Vec::new()) };
 }
 
 /// Move a node by `delta` (m, head frame).
@@ -109,46 +109,88 @@ fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point
     }
 }
 
-/// World axes of the joints of nodes `0..=last` of skeleton `s` (nodes from `lo` in `run`) into
-/// `axes` (node 0, the root, has none: zeros).
-fn joint_axes(run: &Run<'_>, s: usize, lo: usize, last: usize, axes: &mut Vec<(Vector, Vector)>) {
-    axes.clear();
-    axes.push((Vector::zeros(), Vector::zeros()));
-    let mut rot = run.roots[s - run.first].rotation;
-    for i in lo + 1..=lo + last {
-        let bend = Bend::new(run.theta[i], run.phi[i]);
-        axes.push((rot * bend.axis_x, rot * bend.axis_y));
-        rot *= bend.rotation;
-    }
-}
-
-/// Removes the approach of node `j` (within skeleton `s`, whose nodes start at `lo` in `run`)
-/// along the constraint's normal that its own joint causes, and applies friction.
-/// `axes` are the skeleton's joint axes from [`joint_axes`] (the angles do not change here).
-fn constrain_node(
+/// The velocity constraints on skeleton `s` (nodes `r` of `run`), `group` their indices into
+/// `constraints` sorted by node (stably: a node's constraints in their order), then its node
+/// positions and velocities from its angles and rates, in one pass root to tip. Each joint's
+/// bend is evaluated once, for the constraints on its node and for the refresh: the same
+/// arithmetic as the joint axes, the constraints and `Run::refresh` one after the other (a
+/// constraint changes only its own joint's rates, which the refresh reads after it, and reads
+/// the positions from before the refresh).
+fn constrain_and_refresh(
     run: &mut Run<'_>,
     s: usize,
-    lo: usize,
-    j: usize,
-    c: &VelocityConstraint,
-    axes: &[(Vector, Vector)],
+    r: Range<usize>,
+    group: &[u32],
+    constraints: &[VelocityConstraint],
 ) {
-    let root = &mut run.roots[s - run.first];
-    let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
-    if j == 0 {
-        // A root: only a free root moves, and it moves with its velocity.
+    let lo = r.start;
+    let base = run.node_base;
+    let node_of = |ci: u32| constraints[ci as usize].node as usize - base;
+    let mut next = 0;
+    // A root: only a free root moves, and it moves with its velocity.
+    while next < group.len() && node_of(group[next]) == lo {
+        let c = &constraints[group[next] as usize];
+        let root = &mut run.roots[s - run.first];
         if root.free {
+            let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
             let v = root.velocity;
             let vn = v.dot(&n);
             if vn < 0.0 {
                 root.velocity = (v - n * vn) * (1.0 - c.friction.min(1.0));
             }
         }
-        return;
+        next += 1;
     }
-    let i = lo + j;
-    let (ax, ay) = axes[j];
-    let r = run.positions[i] - run.positions[i - 1];
+    let root = &run.roots[s - run.first];
+    let mut rot = root.rotation;
+    let mut position = root.position.coords;
+    let mut velocity = if root.free {
+        root.velocity
+    } else {
+        Vector::zeros()
+    };
+    let mut omega = Vector::zeros();
+    let mut before = run.positions[lo];
+    run.positions[lo] = Point::from(position);
+    run.velocities[lo] = velocity;
+    for i in lo + 1..r.end {
+        let bend = Bend::new(run.theta[i], run.phi[i]);
+        let ax = rot * bend.axis_x;
+        let ay = rot * bend.axis_y;
+        let here = run.positions[i];
+        while next < group.len() && node_of(group[next]) == i {
+            constrain_joint(
+                run,
+                i,
+                &(here - before),
+                &ax,
+                &ay,
+                &constraints[group[next] as usize],
+            );
+            next += 1;
+        }
+        rot *= bend.rotation;
+        let segment = rot.column(2).into_owned() * run.length[i];
+        omega += ax * run.omega_theta[i] + ay * run.omega_phi[i];
+        position += segment;
+        velocity += omega.cross(&segment);
+        run.positions[i] = Point::from(position);
+        run.velocities[i] = velocity;
+        before = here;
+    }
+}
+
+/// Removes the approach of node `i` (its segment `r` from the node before it) along the
+/// constraint's normal that its own joint (world axes `ax`, `ay`) causes, and applies friction.
+fn constrain_joint(
+    run: &mut Run<'_>,
+    i: usize,
+    r: &Vector,
+    ax: &Vector,
+    ay: &Vector,
+    c: &VelocityConstraint,
+) {
+    let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
     // Normal velocity of the node due to its own joint: g . w, g = (n . (ax x r), n . (ay x r)).
     let (gx, gy) = (n.dot(&ax.cross(&r)), n.dot(&ay.cross(&r)));
     let (wx, wy) = (run.omega_theta[i], run.omega_phi[i]);
@@ -292,16 +334,14 @@ impl StrandState {
             let s = touched_ref[k] as usize;
             let r = run.local_nodes(s, offsets, counts);
             let group = &order_ref[groups_ref[k] as usize..groups_ref[k + 1] as usize];
-            let local = |ci: u32| constraints[ci as usize].node as usize - offsets[s] as usize;
-            let last = group.iter().map(|&ci| local(ci)).max().unwrap_or(0);
-            JOINT_AXES.with(|cell| {
-                let mut axes = cell.borrow_mut();
-                joint_axes(run, s, r.start, last, &mut axes);
-                for &ci in group {
-                    constrain_node(run, s, r.start, local(ci), &constraints[ci as usize], &axes);
-                }
+            BY_NODE.with(|cell| {
+                let mut by_node = cell.borrow_mut();
+                by_node.clear();
+                by_node.extend_from_slice(group);
+                // Stable: a node's constraints keep their order.
+                by_node.sort_by_key(|&ci| constraints[ci as usize].node);
+                constrain_and_refresh(run, s, r, &by_node, constraints);
             });
-            run.refresh(s, r);
         });
         self.order_scratch = order;
         self.group_scratch = groups;
