@@ -48,22 +48,26 @@ pub(crate) fn transport_frames_into(
     }
 }
 
-/// The rotation that turns `+z` into the unit vector `t` about `z x t`: the bend
+/// The rotation that turns `+z` into the direction of `t` about `z x t`: the bend
 /// `hair_dynamics::bend_between(t)` (the strand kinematics' minimal rotation between tangents),
-/// written without its angle. With `k = 1 / (1 + t_z)`, Rodrigues' formula gives
-/// `[[1 - k tx^2, -k tx ty, tx], [-k tx ty, 1 - k ty^2, ty], [-tx, -ty, tz]]`: no arctangent and no
-/// sine or cosine, which were most of the cost of the render frames. For `t_z < 0`, `k` is taken
-/// as `(1 - t_z) / (tx^2 + ty^2)`, the same for a unit vector but without the cancellation in
-/// `1 + t_z`; a fold straight back takes the bend's own form.
+/// written without its angle. With `k = 1 / (1 + t_z)` for the unit `t`, Rodrigues' formula
+/// gives `[[1 - k tx^2, -k tx ty, tx], [-k tx ty, 1 - k ty^2, ty], [-tx, -ty, tz]]`: no arctangent
+/// and no sine or cosine, which were most of the cost of the render frames. For `t_z < 0`, `k` is
+/// taken as `(1 - t_z) / (tx^2 + ty^2)`, the same for a unit vector but without the cancellation
+/// in `1 + t_z`; a fold straight back takes the bend's own form. `t` is normalised first: a
+/// tangent seen from a frame that has drifted from orthonormal is not quite unit, and near a
+/// fold the two forms of `k` then disagree (the bend, from an angle and an axis, never sees the
+/// length), so frames would compound the error down a long strand.
 #[inline]
 pub(crate) fn minimal_rotation(t: &nalgebra::Vector3<Real>) -> Matrix3<Real> {
+    let t = t / t.norm();
     let side = t.x * t.x + t.y * t.y;
     let k = if t.z >= 0.0 {
         1.0 / (1.0 + t.z)
     } else if side > 1e-12 {
         (1.0 - t.z) / side
     } else {
-        let (x, y) = hair_dynamics::bend_between(t);
+        let (x, y) = hair_dynamics::bend_between(&t);
         return hair_dynamics::Bend::new(x, y).rotation;
     };
     let kxy = -k * t.x * t.y;
@@ -174,6 +178,20 @@ mod tests {
             }
         }
         assert!(worst < 2e-6, "largest difference from the bend: {worst}");
+        // A tangent that is not quite unit (seen from a frame drifted from orthonormal) still
+        // gives a rotation, near a fold too.
+        for t in [
+            Vector3::new(1e-4, 2e-4, -1.0) * 1.001,
+            Vector3::new(0.3, -0.2, -0.9).normalize() * 0.999,
+            Vector3::new(0.3, 0.2, 0.9).normalize() * 1.002,
+        ] {
+            let r = minimal_rotation(&t);
+            assert!(
+                (r.transpose() * r - Matrix3::identity()).abs().max() < 1e-5,
+                "{t:?}"
+            );
+            assert!((r * Vector3::z() - t.normalize()).norm() < 1e-5, "{t:?}");
+        }
         // Folded straight back: the bend's own half turn about x.
         let back = Vector3::new(0.0, 0.0, -1.0);
         let (x, y) = hair_dynamics::bend_between(&back);
