@@ -192,7 +192,7 @@ fn constrain_joint(
 ) {
     let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
     // Normal velocity of the node due to its own joint: g . w, g = (n . (ax x r), n . (ay x r)).
-    let (gx, gy) = (n.dot(&ax.cross(&r)), n.dot(&ay.cross(&r)));
+    let (gx, gy) = (n.dot(&ax.cross(r)), n.dot(&ay.cross(r)));
     let (wx, wy) = (run.omega_theta[i], run.omega_phi[i]);
     let into = gx * wx + gy * wy;
     let g2 = gx * gx + gy * gy;
