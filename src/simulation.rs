@@ -968,6 +968,12 @@ impl Simulation {
     /// is thin (an ear) or creased, pass after pass. The contacts of every pass lose their
     /// approach velocity once, after the last pass. Returns the nodes in
     /// contact on the first pass and the deepest node centre left inside the body (m).
+    ///
+    /// Measured and dropped: computing the passes' targets ahead in parallel wherever no node's
+    /// outcome depends on another's (outside the ramp's first pass and the late passes), with the
+    /// loop below only gathering them in order. The same corrections, but on `strands10k` the
+    /// first pass (310,000 nodes, 97,000 moved) took 9.5 ms for both parts against 8.1 ms for the
+    /// serial loop alone (temporary timers): the loop's cost is its bookkeeping, not the targets.
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
             return Ok((0, 0.0));
