@@ -570,7 +570,8 @@ impl Simulation {
                 self.strand_order.push(s);
             }
         }
-        // A front covers every strand once; were it not so, strand order is still correct.
+        // A front is a cut of the hierarchy, so it holds every strand once; should the count
+        // ever differ, the strands are drawn in their own order.
         if self.strand_order.len() != n_strands {
             self.strand_order.clear();
             self.strand_order.extend(0..n_strands as u32);
