@@ -157,7 +157,8 @@ mod tests {
 
     #[test]
     fn the_minimal_rotation_is_the_strands_bend() {
-        // Tangents all around the sphere: near +z, near -z (the bend's own form) and between.
+        // Tangents all around the sphere: near +z, near -z (the `(1 - t_z) / side` form) and
+        // between; the exact fold, where the bend's own form is taken, is checked below.
         let mut worst: Real = 0.0;
         for i in 0..=40 {
             for j in 0..24 {

@@ -237,9 +237,9 @@
 //! candidates, 691,521 pairs; written by `cargo run --release -p hair --example grid_sections
 //! -- wardlin 41 fine FILE` and read through `HAIR_GRID_SECTIONS=FILE`; the pair hashes
 //! `7ce3e7bc15dc211c 1ac77578bd4bbaa` at 6f0dda3), alternated with the commit before over three
-//! rounds: the fastest search went from 8.5-9.7 ms to 7.0-8.3 ms. In `hair run wardlin --frames 40 --lod fine`,
-//! alternated over four rounds, the fastest `hair_hair` frame went from 17.3-18.3 ms to
-//! 16.0-17.7 ms. The bench scene in 3 cm cells (3,730 cells of 127 sections on average;
+//! rounds: the fastest search went from 8.5-9.7 ms to 7.0-8.3 ms. In `hair run wardlin
+//! --frames 40 --lod fine`, alternated over four rounds, the fastest `hair_hair` frame went from
+//! 17.3-18.3 ms to 16.0-17.7 ms. The bench scene in 3 cm cells (3,730 cells of 127 sections on average;
 //! `grid_profile pairs 5 0.03`, a criterion bench too) went from 80 to 43 ms.
 //!
 //! Measured and dropped: one division instead of two for the exact test's first parameter
