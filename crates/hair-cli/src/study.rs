@@ -4,7 +4,11 @@
 //!
 //! The reference is the `fine` policy with the scene's own collision method and localization off:
 //! the finest simulation. Localization (the salon paper's dormant cells) is measured on top of
-//! `fine` and `adaptive`, whatever the scene asks for. Every run starts
+//! `fine` and `adaptive`, whatever the scene asks for. `adaptive` is also run with the scene's LOD
+//! distances scaled down ([`DISTANCE_SCALES`]; `adaptive+distance0.5` asks for the finest level
+//! only at half the distance, and for the coarsest from half the distance): a policy's cost
+//! falls as its error rises, and these rows trace that trade from the scene's own setting toward
+//! the clusters. Every run starts
 //! from the same scene and seed; after every frame the rendered strands' control vertices are
 //! compared with the reference's at the same frame, and the RMS and the maximum over all frames
 //! and vertices are reported (mm).
@@ -37,6 +41,10 @@ pub struct Args {
     #[arg(long)]
     pub threads: Option<usize>,
 }
+
+/// Factors on the scene's `adaptive` distances (`distance_finest` and `distance_coarsest`) of the
+/// extra `adaptive+distanceF` rows.
+pub const DISTANCE_SCALES: [f32; 2] = [0.5, 0.25];
 
 /// Relative change of gravity in the `fine+perturbed` run.
 pub const GRAVITY_PERTURBATION: f32 = 1e-6;
@@ -116,6 +124,8 @@ struct Config {
     localization: bool,
     /// Relative change of gravity (0: the scene's own).
     perturbation: f32,
+    /// Factor on the scene's adaptive LOD distances (1: the scene's own).
+    distance_scale: f32,
 }
 
 struct Run {
@@ -134,10 +144,14 @@ fn run_one(
         method,
         localization,
         perturbation,
+        distance_scale,
     } = config;
     let mut loaded = scene.clone();
     loaded.scene.collision.method = method;
     loaded.scene.localization = localization;
+    let adaptive = &mut loaded.scene.adaptive;
+    adaptive.distance_finest *= distance_scale;
+    adaptive.distance_coarsest *= distance_scale;
     for g in &mut loaded.scene.dynamics.gravity {
         *g *= 1.0 + perturbation;
     }
@@ -180,6 +194,9 @@ fn run_one(
     let mut name = policy.name().to_string();
     if method != scene.scene.collision.method {
         name = format!("{name}+{}", method_name(method));
+    }
+    if distance_scale != 1.0 {
+        name.push_str(&format!("+distance{distance_scale}"));
     }
     if localization {
         name.push_str("+localized");
@@ -230,6 +247,7 @@ pub fn run(args: Args) -> Result<()> {
         method,
         localization,
         perturbation: 0.0,
+        distance_scale: 1.0,
     };
     let mut configs: Vec<Config> = vec![Config {
         perturbation: GRAVITY_PERTURBATION,
@@ -245,6 +263,10 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .map(|p| config(p, own, false)),
     );
+    configs.extend(DISTANCE_SCALES.map(|distance_scale| Config {
+        distance_scale,
+        ..config(LodPolicy::Adaptive, own, false)
+    }));
     configs.push(config(LodPolicy::Fine, own, true));
     configs.push(config(LodPolicy::Adaptive, own, true));
     let mut methods = vec![CollisionMethod::Field, CollisionMethod::Bvh];
@@ -272,10 +294,15 @@ pub fn run(args: Args) -> Result<()> {
         let mut policies = vec![reference.result.clone()];
         for c in configs {
             eprintln!(
-                "study {}: {} ({}{}{}) ...",
+                "study {}: {} ({}{}{}{}) ...",
                 loaded.scene.name,
                 c.policy.name(),
                 method_name(c.method),
+                if c.distance_scale != 1.0 {
+                    format!(", distances x{}", c.distance_scale)
+                } else {
+                    String::new()
+                },
                 if c.localization { ", localized" } else { "" },
                 if c.perturbation != 0.0 {
                     ", perturbed"
@@ -337,11 +364,14 @@ fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow::anyhow!("drawing the study chart: {e:?}")
 }
 
-/// Error against cost, one labelled point per configuration.
+/// Error against cost: one numbered point per configuration, the numbers listed beside the
+/// chart with each configuration's figures (names written at the points overlap where several
+/// configurations cost about what `fine` costs), and the chaos floor as a dashed line.
 fn chart(path: &Path, study: &Study) -> Result<()> {
     crate::chart::register_font();
-    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1200, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
+    let (plot, legend) = root.split_horizontally(820);
     let max_ms = study
         .policies
         .iter()
@@ -352,18 +382,18 @@ fn chart(path: &Path, study: &Study) -> Result<()> {
         .iter()
         .map(|p| p.rms_error_mm)
         .fold(1e-3, f64::max);
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(&plot)
         .caption(
             format!(
                 "{}: RMS distance from the fine run vs cost ({} frames, {} threads)",
                 study.scene, study.frames, study.threads
             ),
-            ("sans-serif", 22),
+            ("sans-serif", 20),
         )
         .margin(20)
         .x_label_area_size(50)
         .y_label_area_size(70)
-        .build_cartesian_2d(0.0..max_ms * 1.15, 0.0..max_err * 1.2)
+        .build_cartesian_2d(0.0..max_ms * 1.1, 0.0..max_err * 1.15)
         .map_err(err)?;
     chart
         .configure_mesh()
@@ -372,17 +402,56 @@ fn chart(path: &Path, study: &Study) -> Result<()> {
         .label_style(("sans-serif", 15))
         .draw()
         .map_err(err)?;
-    for p in &study.policies {
+    let floor = study.chaos_floor_rms_mm;
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(0.0, floor), (max_ms * 1.1, floor)],
+            6,
+            4,
+            RED.stroke_width(1),
+        ))
+        .map_err(err)?;
+    chart
+        .draw_series(std::iter::once(Text::new(
+            format!("chaos floor {floor:.2} mm"),
+            (max_ms * 0.02, floor),
+            ("sans-serif", 14).into_font().color(&RED),
+        )))
+        .map_err(err)?;
+    for (k, p) in study.policies.iter().enumerate() {
         let xy = (p.ms_per_frame, p.rms_error_mm);
+        // The number above and to the right of its point, clear of the dot.
         chart
-            .draw_series(std::iter::once(Circle::new(xy, 6, BLUE.filled())))
+            .draw_series(std::iter::once(
+                EmptyElement::at(xy)
+                    + Circle::new((0, 0), 5, BLUE.filled())
+                    + Text::new(format!("{}", k + 1), (6, -18), ("sans-serif", 15).into_font()),
+            ))
             .map_err(err)?;
-        chart
-            .draw_series(std::iter::once(Text::new(
-                format!("{} (max {:.1} mm)", p.name, p.max_error_mm),
-                (xy.0, xy.1),
-                ("sans-serif", 15).into_font(),
-            )))
+    }
+    let font = ("sans-serif", 14).into_font();
+    legend
+        .draw(&Text::new(
+            "configuration: ms per frame, RMS (max) error",
+            (0, 40),
+            font.clone(),
+        ))
+        .map_err(err)?;
+    for (k, p) in study.policies.iter().enumerate() {
+        let y = 70 + 22 * k as i32;
+        legend
+            .draw(&Text::new(
+                format!(
+                    "{:>2} {}: {:.1} ms, {:.2} ({:.1}) mm",
+                    k + 1,
+                    p.name,
+                    p.ms_per_frame,
+                    p.rms_error_mm,
+                    p.max_error_mm
+                ),
+                (0, y),
+                font.clone(),
+            ))
             .map_err(err)?;
     }
     root.present().map_err(err)?;
@@ -423,6 +492,8 @@ mod tests {
         for expected in [
             "fine+perturbed",
             "adaptive",
+            "adaptive+distance0.5",
+            "adaptive+distance0.25",
             "strips",
             "fine+bvh",
             "fine+maps",
