@@ -425,7 +425,11 @@ fn chart(path: &Path, study: &Study) -> Result<()> {
             .draw_series(std::iter::once(
                 EmptyElement::at(xy)
                     + Circle::new((0, 0), 5, BLUE.filled())
-                    + Text::new(format!("{}", k + 1), (6, -18), ("sans-serif", 15).into_font()),
+                    + Text::new(
+                        format!("{}", k + 1),
+                        (6, -18),
+                        ("sans-serif", 15).into_font(),
+                    ),
             ))
             .map_err(err)?;
     }

@@ -86,9 +86,21 @@ pub fn segment_segment_gaps(
 ) -> [[Real; GAP_LANES]; 3] {
     let mut gap = [[0.0; GAP_LANES]; 3];
     for i in 0..GAP_LANES {
-        let (ux, uy, uz) = (p1[0][i] - p0[0][i], p1[1][i] - p0[1][i], p1[2][i] - p0[2][i]);
-        let (vx, vy, vz) = (q1[0][i] - q0[0][i], q1[1][i] - q0[1][i], q1[2][i] - q0[2][i]);
-        let (rx, ry, rz) = (p0[0][i] - q0[0][i], p0[1][i] - q0[1][i], p0[2][i] - q0[2][i]);
+        let (ux, uy, uz) = (
+            p1[0][i] - p0[0][i],
+            p1[1][i] - p0[1][i],
+            p1[2][i] - p0[2][i],
+        );
+        let (vx, vy, vz) = (
+            q1[0][i] - q0[0][i],
+            q1[1][i] - q0[1][i],
+            q1[2][i] - q0[2][i],
+        );
+        let (rx, ry, rz) = (
+            p0[0][i] - q0[0][i],
+            p0[1][i] - q0[1][i],
+            p0[2][i] - q0[2][i],
+        );
         let a = ux * ux + uy * uy + uz * uz;
         let e = vx * vx + vy * vy + vz * vz;
         let b = ux * vx + uy * vy + uz * vz;
