@@ -17,7 +17,6 @@ use hair_dynamics::{
 };
 use hair_grid::{Activity, ActivityConfig, ActivityInput, Grid, GridConfig, PairSet, Section};
 use hair_lod::{Hierarchy, HierarchyParams, NodeKind, TransitionReport};
-use hair_ssv::query::GAP_LANES;
 use hair_ssv::{Lss, Point, Real, Ssv, Vector};
 use nalgebra::{Isometry3, Matrix3};
 use rayon::prelude::*;
@@ -803,9 +802,6 @@ impl Simulation {
                 .for_each(|(chunk, out)| {
                     out.shares.clear();
                     out.pushes.clear();
-                    // Crossing pairs wait in lanes until eight have come, so that their closest
-                    // points are found eight at a time; the pushes keep their pair order.
-                    let mut lanes = CrossingLanes::default();
                     for &[a, b] in pairs.chunk(chunk) {
                         let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
                         if !(sa.segment && sb.segment && (sa.active || sb.active)) {
@@ -815,11 +811,15 @@ impl Simulation {
                             out.shares.push([sa.node, sb.node]);
                             continue;
                         }
-                        if lanes.add(sa, sb) {
-                            lanes.push_apart(&mut out.pushes);
+                        let c = hair_ssv::query::segment_segment(&sa.a, &sa.b, &sb.a, &sb.b);
+                        let d = c.on_b - c.on_a;
+                        let dist = d.norm();
+                        let overlap = sa.radius + sb.radius - dist;
+                        if overlap > 0.0 && dist > 1e-9 {
+                            out.pushes
+                                .push((sa.node, sb.node, d * (0.5 * overlap / dist)));
                         }
                     }
-                    lanes.push_apart(&mut out.pushes);
                 });
             let responses = &self.responses[..chunks];
             stats.hair_contacts += responses
@@ -1415,50 +1415,6 @@ struct ContactSection {
     active: bool,
     /// Whether it is a segment (the only shape the response handles).
     segment: bool,
-}
-
-/// Crossing hair-hair pairs gathered for [`hair_ssv::query::segment_segment_gaps`].
-#[derive(Default)]
-struct CrossingLanes {
-    ends: [[[Real; GAP_LANES]; 3]; 4],
-    /// Per lane: the two sections' end nodes and the sum of their radii.
-    pair: [(u32, u32, Real); GAP_LANES],
-    len: usize,
-}
-
-impl CrossingLanes {
-    /// Adds a pair; returns whether the lanes are full.
-    fn add(&mut self, sa: &ContactSection, sb: &ContactSection) -> bool {
-        let i = self.len;
-        for k in 0..3 {
-            self.ends[0][k][i] = sa.a[k];
-            self.ends[1][k][i] = sa.b[k];
-            self.ends[2][k][i] = sb.a[k];
-            self.ends[3][k][i] = sb.b[k];
-        }
-        self.pair[i] = (sa.node, sb.node, sa.radius + sb.radius);
-        self.len += 1;
-        self.len == GAP_LANES
-    }
-
-    /// The pushes of the pairs held, in the order they came (the overlap halved, along the line
-    /// between the closest points), then empties the lanes.
-    fn push_apart(&mut self, pushes: &mut Vec<(u32, u32, Vector)>) {
-        if self.len == 0 {
-            return;
-        }
-        let [p0, p1, q0, q1] = &self.ends;
-        let gap = hair_ssv::query::segment_segment_gaps(p0, p1, q0, q1);
-        for (i, &(a, b, radii)) in self.pair[..self.len].iter().enumerate() {
-            let d = Vector::new(gap[0][i], gap[1][i], gap[2][i]);
-            let dist = d.norm();
-            let overlap = radii - dist;
-            if overlap > 0.0 && dist > 1e-9 {
-                pushes.push((a, b, d * (0.5 * overlap / dist)));
-            }
-        }
-        self.len = 0;
-    }
 }
 
 /// The hair-hair narrow phase's decisions for one chunk of the pair set, in pair order.

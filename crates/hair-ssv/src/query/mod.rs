@@ -21,9 +21,7 @@ pub(crate) use point_triangle::{TriLanes, point_triangle_lanes};
 pub use rectangle_rectangle::rectangle_rectangle;
 pub use rectangle_triangle::rectangle_triangle;
 pub use segment_rectangle::segment_rectangle;
-pub use segment_segment::{
-    GAP_LANES, segment_segment, segment_segment_dist_sq, segment_segment_gaps,
-};
+pub use segment_segment::{segment_segment, segment_segment_dist_sq};
 pub use segment_triangle::segment_triangle;
 
 use crate::{Point, Real};
