@@ -516,6 +516,22 @@ mod tests {
                 assert!(v.is_finite() && v >= 0.0, "{} {key} {v}", r["name"]);
             }
         }
+        // Nearer distances for the finest level never ask for more detail: the scaled rows hold
+        // no more skeletons than `adaptive`, and the quartered one fewer.
+        let skeletons = |name: &str| {
+            rows.iter().find(|r| r["name"] == name).unwrap()["mean_skeletons"]
+                .as_f64()
+                .unwrap()
+        };
+        let (own, half, quarter) = (
+            skeletons("adaptive"),
+            skeletons("adaptive+distance0.5"),
+            skeletons("adaptive+distance0.25"),
+        );
+        assert!(
+            own >= half && half >= quarter && quarter < own,
+            "{own} {half} {quarter}"
+        );
         let perturbed = rows.iter().find(|r| r["name"] == "fine+perturbed").unwrap();
         assert_eq!(study["chaos_floor_rms_mm"], perturbed["rms_error_mm"]);
         assert!(dir.join("study.csv").exists() && dir.join("study.png").exists());
