@@ -498,6 +498,23 @@ impl Simulation {
         Ok(steps)
     }
 
+    /// Which of `points` (world coordinates, as [`Simulation::render_geometry`] gives them) the
+    /// camera sees now, by the test the `adaptive` policy selects with: inside the view cone
+    /// and, on the procedural head, not behind the head. Written to `out`, one flag per point.
+    pub fn seen_by_camera(&self, points: &[Point], out: &mut Vec<bool>) {
+        let view = self.view(self.time);
+        let head = drivers::head_motion(&self.scene.head_motion, self.time);
+        // The inverse of the render geometry's head-to-world transform.
+        let to_head = (self.teleport.rotation.to_rotation_matrix() * head.rotation).inverse();
+        let origin = self.teleport * head.position;
+        out.clear();
+        out.extend(
+            points
+                .iter()
+                .map(|p| view.sees(&Point::from(to_head * (p - origin)))),
+        );
+    }
+
     /// The strands at the time of the last [`Simulation::advance`] frame, interpolated between
     /// the two steps around it (the last one's geometry before any `advance`).
     pub fn frame_geometry(&self) -> &RenderGeometry {
@@ -1456,6 +1473,26 @@ fn hierarchy_params(scene: &Scene) -> HierarchyParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The camera (the default: in front of the face) sees a point between it and the face, not
+    /// one behind the head or far to the side; a teleport carries what it sees with the head.
+    #[test]
+    fn the_camera_sees_in_front_of_the_head_and_follows_a_teleport() {
+        let scene = Scene::load("bristles").expect("built-in scene");
+        let mut sim = Simulation::new(&scene, LodPolicy::Fine).expect("scene builds");
+        let points = [
+            Point::new(0.0, 0.0, 0.3),
+            Point::new(0.0, 0.0, -0.3),
+            Point::new(1.0, 0.0, 0.5),
+            Point::new(2.0, 0.0, 0.3),
+        ];
+        let mut seen = Vec::new();
+        sim.seen_by_camera(&points, &mut seen);
+        assert_eq!(seen, [true, false, false, false]);
+        sim.teleport(Isometry3::translation(2.0, 0.0, 0.0));
+        sim.seen_by_camera(&points, &mut seen);
+        assert_eq!(seen, [false, false, false, true]);
+    }
 
     /// One float's lowest bit flipped anywhere in the state (an angle or a rate of the first, a
     /// middle or the last node) changes the hash; flipped back, the hash returns.
