@@ -395,7 +395,7 @@ fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 /// configurations cost about what `fine` costs), and the chaos floor as a dashed line.
 fn chart(path: &Path, study: &Study) -> Result<()> {
     crate::chart::register_font();
-    let root = BitMapBackend::new(path, (1200, 700)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1300, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let (plot, legend) = root.split_horizontally(820);
     let max_ms = study
