@@ -1442,7 +1442,11 @@ struct ContactSection {
 /// the joint that consecutive shares have in common in registers (the accumulation on `wardlin`
 /// went from 1.6 to 2.1 ms: slower); the pushes' closest points eight pairs at a time by a lane
 /// kernel equal to the scalar one bit for bit (the narrow phase unchanged: 2.4-3.1 ms on
-/// `wardlin`, 59-90 ms on `strands10k`, either way).
+/// `wardlin`, 59-90 ms on `strands10k`, either way; tried again later, medians of 3.86-4.32 ms
+/// with it and 3.68-4.78 ms without over four alternated rounds of 60 frames); each node's two
+/// rates side by side in a scratch while the shares average them (one load and one store of a
+/// pair per node instead of two of each: the shares' loop took 1.76-1.83 ms fastest with it and
+/// 1.69-1.91 ms without over three rounds; it waits on the chain of shares, not on memory).
 #[derive(Debug, Default)]
 struct ResponseChunk {
     /// Near-parallel sections in contact: their joints share their rates.
