@@ -99,6 +99,9 @@ pub struct Study {
     /// RMS distance of `fine+perturbed` from the reference (mm): the error of a run that differs
     /// from `fine` by a perturbation far below measurement.
     pub chaos_floor_rms_mm: f64,
+    /// Fraction of the reference's control vertices, over all frames, that the camera sees (the
+    /// vertices `visible_rms_error_mm` is taken over).
+    pub seen_fraction: f64,
     /// One entry per configuration; the first is the reference.
     pub policies: Vec<PolicyResult>,
 }
@@ -138,6 +141,8 @@ struct Run {
     frames: Vec<Vec<hair::ssv::Point>>,
     /// Per frame, whether the camera sees each control vertex.
     seen: Vec<Vec<bool>>,
+    /// Strands rendered.
+    strands: usize,
 }
 
 fn run_one(
@@ -250,6 +255,7 @@ fn run_one(
         },
         frames: kept,
         seen: kept_seen,
+        strands: sim.render_geometry().strand_count(),
     })
 }
 
@@ -315,7 +321,11 @@ pub fn run(args: Args) -> Result<()> {
         );
         let reference = run_one(&loaded, config(LodPolicy::Fine, own, false), frames, None)?;
         let fine_ms = reference.result.ms_per_frame.max(1e-9);
-        let strands = reference.frames.first().map_or(0, |f| f.len());
+        let strands = reference.strands;
+        let (seen, vertices) = reference.seen.iter().fold((0usize, 0usize), |(s, n), f| {
+            (s + f.iter().filter(|&&x| x).count(), n + f.len())
+        });
+        let seen_fraction = seen as f64 / vertices.max(1) as f64;
         let mut policies = vec![reference.result.clone()];
         for c in configs {
             eprintln!(
@@ -349,6 +359,7 @@ pub fn run(args: Args) -> Result<()> {
             threads,
             strands,
             chaos_floor_rms_mm,
+            seen_fraction,
             policies,
         })
     })?;
@@ -569,6 +580,9 @@ mod tests {
         // The camera sees some of the hair: the coarsest policy's error shows there too.
         let strips = rows.iter().find(|r| r["name"] == "strips").unwrap();
         assert!(strips["visible_rms_error_mm"].as_f64().unwrap() > 0.0);
+        assert_eq!(study["strands"].as_u64(), Some(60));
+        let seen = study["seen_fraction"].as_f64().unwrap();
+        assert!(seen > 0.0 && seen <= 1.0, "{seen}");
         let perturbed = rows.iter().find(|r| r["name"] == "fine+perturbed").unwrap();
         assert_eq!(study["chaos_floor_rms_mm"], perturbed["rms_error_mm"]);
         assert!(dir.join("study.csv").exists() && dir.join("study.png").exists());
