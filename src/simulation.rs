@@ -501,6 +501,8 @@ impl Simulation {
     /// Which of `points` (world coordinates, as [`Simulation::render_geometry`] gives them) the
     /// camera sees now, by the test the `adaptive` policy selects with: inside the view cone
     /// and, on the procedural head, not behind the head. Written to `out`, one flag per point.
+    /// As for that policy, the camera keeps its place relative to the scene's head path, so a
+    /// teleport carries what it sees along with the head.
     pub fn seen_by_camera(&self, points: &[Point], out: &mut Vec<bool>) {
         let view = self.view(self.time);
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
@@ -1479,7 +1481,8 @@ mod tests {
     use super::*;
 
     /// The camera (the default: in front of the face) sees a point between it and the face, not
-    /// one behind the head or far to the side; a teleport carries what it sees with the head.
+    /// one behind the head or far to the side; a teleport carries what it sees with the head
+    /// (the camera keeps its place relative to the head path, as for the adaptive policy).
     #[test]
     fn the_camera_sees_in_front_of_the_head_and_follows_a_teleport() {
         let scene = Scene::load("bristles").expect("built-in scene");
