@@ -9,13 +9,7 @@ use crate::bend::{Bend, bend_between};
 use crate::run::{Run, for_each_skeleton};
 use crate::{DynamicsError, Point, Real, StrandState, Vector};
 use nalgebra::Matrix3;
-use std::cell::RefCell;
 use std::ops::Range;
-
-thread_local! {
-    /// The constraints on the skeleton being constrained, sorted by node.
-    static BY_NODE: RefCell<Vec<u32>> = const { RefCell::new(Vec::new()) };
-}
 
 /// Move a node by `delta` (m, head frame).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -334,20 +328,16 @@ impl StrandState {
         for &s in &touched {
             self.slot_scratch[s as usize] = u32::MAX;
         }
+        // Within each group, by node; a node's constraints keep their order (a group lists
+        // them ascending, so the index breaks ties as a stable sort would).
+        sort_groups_by_node(&mut order, &groups, constraints);
         let (run, offsets, counts) = self.run_with_layout();
         let (order_ref, groups_ref, touched_ref) = (&order, &groups, &touched);
         for_each_skeleton(run, &touched, offsets, &|run, k| {
             let s = touched_ref[k] as usize;
             let r = run.local_nodes(s, offsets, counts);
             let group = &order_ref[groups_ref[k] as usize..groups_ref[k + 1] as usize];
-            BY_NODE.with(|cell| {
-                let mut by_node = cell.borrow_mut();
-                by_node.clear();
-                by_node.extend_from_slice(group);
-                // Stable: a node's constraints keep their order.
-                by_node.sort_by_key(|&ci| constraints[ci as usize].node);
-                constrain_and_refresh(run, s, r, &by_node, constraints);
-            });
+            constrain_and_refresh(run, s, r, group, constraints);
         });
         self.order_scratch = order;
         self.group_scratch = groups;
@@ -453,4 +443,26 @@ impl StrandState {
     pub fn skeleton_of(&self, node: usize) -> u32 {
         self.node_skeleton[node]
     }
+}
+
+/// Sorts each group of constraint indices (`order[groups[g]..groups[g + 1]]`, each ascending)
+/// by node, in place and in parallel halves of the groups. The sort is unstable on (node,
+/// index), which orders as a stable sort by node would, and takes no memory.
+fn sort_groups_by_node(order: &mut [u32], groups: &[u32], constraints: &[VelocityConstraint]) {
+    // Fewer constraints than this are sorted on the calling thread.
+    const SERIAL: usize = 4096;
+    let base = groups[0] as usize;
+    if groups.len() <= 2 || order.len() <= SERIAL {
+        for w in groups.windows(2) {
+            order[w[0] as usize - base..w[1] as usize - base]
+                .sort_unstable_by_key(|&ci| (constraints[ci as usize].node, ci));
+        }
+        return;
+    }
+    let mid = groups.len() / 2;
+    let (left, right) = order.split_at_mut(groups[mid] as usize - base);
+    rayon::join(
+        || sort_groups_by_node(left, &groups[..=mid], constraints),
+        || sort_groups_by_node(right, &groups[mid..], constraints),
+    );
 }

@@ -113,7 +113,7 @@ pub(crate) struct RootState {
 /// Node `i` of a skeleton carries the two bend angles of the segment that ends at it (node 0,
 /// the root, has none). Skeleton `s` owns nodes `offset(s) .. offset(s) + count(s)`; cutting
 /// shrinks `count` in place, adding appends.
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct StrandState {
     pub(crate) offsets: Vec<u32>,
     pub(crate) counts: Vec<u32>,
@@ -156,6 +156,90 @@ pub struct StrandState {
     /// Constraint indices grouped by skeleton, and where each skeleton's group starts.
     pub(crate) order_scratch: Vec<u32>,
     pub(crate) group_scratch: Vec<u32>,
+}
+
+/// `clone_from` copies into the buffers already held (a reset or a rollback takes no new
+/// memory for them, and the working buffers keep the room they grew to).
+impl Clone for StrandState {
+    fn clone(&self) -> Self {
+        let mut copy = Self::default();
+        copy.clone_from(self);
+        copy
+    }
+
+    fn clone_from(&mut self, from: &Self) {
+        // Every field named: a new one is a compile error here until it is copied too.
+        let Self {
+            offsets,
+            counts,
+            capacities,
+            roots,
+            active,
+            theta,
+            phi,
+            omega_theta,
+            omega_phi,
+            rest_theta,
+            rest_phi,
+            rest_length,
+            length,
+            mass,
+            wetness,
+            k_theta,
+            k_phi,
+            k_stretch,
+            damping,
+            radius,
+            rest_points,
+            external_force,
+            positions,
+            velocities,
+            steps,
+            bonds,
+            force_scratch,
+            target_scratch,
+            moved_scratch,
+            touched_scratch,
+            node_skeleton,
+            slot_scratch,
+            order_scratch,
+            group_scratch,
+        } = self;
+        offsets.clone_from(&from.offsets);
+        counts.clone_from(&from.counts);
+        capacities.clone_from(&from.capacities);
+        roots.clone_from(&from.roots);
+        active.clone_from(&from.active);
+        theta.clone_from(&from.theta);
+        phi.clone_from(&from.phi);
+        omega_theta.clone_from(&from.omega_theta);
+        omega_phi.clone_from(&from.omega_phi);
+        rest_theta.clone_from(&from.rest_theta);
+        rest_phi.clone_from(&from.rest_phi);
+        rest_length.clone_from(&from.rest_length);
+        length.clone_from(&from.length);
+        mass.clone_from(&from.mass);
+        wetness.clone_from(&from.wetness);
+        k_theta.clone_from(&from.k_theta);
+        k_phi.clone_from(&from.k_phi);
+        k_stretch.clone_from(&from.k_stretch);
+        damping.clone_from(&from.damping);
+        radius.clone_from(&from.radius);
+        rest_points.clone_from(&from.rest_points);
+        external_force.clone_from(&from.external_force);
+        positions.clone_from(&from.positions);
+        velocities.clone_from(&from.velocities);
+        *steps = from.steps;
+        bonds.clone_from(&from.bonds);
+        force_scratch.clone_from(&from.force_scratch);
+        target_scratch.clone_from(&from.target_scratch);
+        moved_scratch.clone_from(&from.moved_scratch);
+        touched_scratch.clone_from(&from.touched_scratch);
+        node_skeleton.clone_from(&from.node_skeleton);
+        slot_scratch.clone_from(&from.slot_scratch);
+        order_scratch.clone_from(&from.order_scratch);
+        group_scratch.clone_from(&from.group_scratch);
+    }
 }
 
 macro_rules! node_field {

@@ -104,6 +104,36 @@ impl Activity {
         }
     }
 
+    /// Forgets the history (every cell starts active again, as after [`Activity::new`]),
+    /// keeping the configuration and the buffers.
+    pub fn clear(&mut self) {
+        let Self {
+            config: _,
+            prev_keys,
+            prev_start,
+            cur_keys,
+            cur_start,
+            states,
+            next,
+            events,
+            tool_cells,
+            touched,
+            frozen,
+            integrate,
+        } = self;
+        prev_keys.clear();
+        prev_start.clear();
+        cur_keys.clear();
+        cur_start.clear();
+        states.clear();
+        next.clear();
+        events.clear();
+        tool_cells.clear();
+        touched.clear();
+        frozen.clear();
+        integrate.clear();
+    }
+
     /// The configuration.
     pub fn config(&self) -> &ActivityConfig {
         &self.config

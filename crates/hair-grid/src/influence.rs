@@ -7,6 +7,16 @@ use crate::cover::CellBox;
 use crate::grid::{EPS_CELLS, Grid, cells_of};
 use crate::{GridError, Point, Real, Ssv, Vector};
 
+/// A volume's cells, and the polygon cover's working list.
+type VolumeScratch = (Vec<[i64; 3]>, Vec<[i64; 3]>);
+
+thread_local! {
+    /// Kept per thread between queries: the salon's tools and the activity's wake-ups query
+    /// volumes every step, and the step loop takes no memory.
+    static VOLUME_SCRATCH: std::cell::RefCell<VolumeScratch> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
 /// A truncated cone: from `apex` along the unit `axis` for `length` metres, with radius
 /// `radius + spread * s` at distance `s` along the axis (`spread` is the tangent of the cut-off
 /// angle).
@@ -257,6 +267,7 @@ impl Grid {
         &self,
         volume: &InfluenceVolume,
         cells: &mut Vec<[i64; 3]>,
+        scratch: &mut Vec<[i64; 3]>,
     ) -> Result<(), GridError> {
         cells.clear();
         if let Some(field) = volume.invalid_field() {
@@ -278,7 +289,6 @@ impl Grid {
             limit,
             cell_size: self.cell_size,
         };
-        let mut scratch = Vec::new();
         let mut emit = |c: [i64; 3]| {
             if !self.range_of(c).is_empty() {
                 cells.push(c);
@@ -302,7 +312,7 @@ impl Grid {
             }
             InfluenceVolume::Triangle(t) => {
                 let v = t.map(|p| cells_of(&p, inv));
-                crate::cover::polygon(&v, EPS_CELLS, &clip, limit, &mut scratch, &mut emit)
+                crate::cover::polygon(&v, EPS_CELLS, &clip, limit, scratch, &mut emit)
                     .map_err(|_| too_many())?;
             }
         }
@@ -322,15 +332,16 @@ impl Grid {
         volume: &InfluenceVolume,
         out: &mut Vec<CellKey>,
     ) -> Result<(), GridError> {
-        let mut cells = Vec::new();
-        self.volume_cells(volume, &mut cells)?;
-        out.clear();
-        out.extend(
-            cells
-                .iter()
-                .map(|c| CellKey::new(c[0] as i32, c[1] as i32, c[2] as i32)),
-        );
-        Ok(())
+        VOLUME_SCRATCH.with_borrow_mut(|(cells, scratch)| {
+            self.volume_cells(volume, cells, scratch)?;
+            out.clear();
+            out.extend(
+                cells
+                    .iter()
+                    .map(|c| CellKey::new(c[0] as i32, c[1] as i32, c[2] as i32)),
+            );
+            Ok(())
+        })
     }
 
     /// The sections the volume touches (salon paper §4.3.2): the sections of the cells the
@@ -343,12 +354,14 @@ impl Grid {
         volume: &InfluenceVolume,
         out: &mut Vec<u32>,
     ) -> Result<(), GridError> {
-        let mut cells = Vec::new();
-        self.volume_cells(volume, &mut cells)?;
-        out.clear();
-        for &c in &cells {
-            out.extend_from_slice(&self.sorted_items[self.range_of(c)]);
-        }
+        VOLUME_SCRATCH.with_borrow_mut(|(cells, scratch)| {
+            self.volume_cells(volume, cells, scratch)?;
+            out.clear();
+            for &c in cells.iter() {
+                out.extend_from_slice(&self.sorted_items[self.range_of(c)]);
+            }
+            Ok::<(), GridError>(())
+        })?;
         out.sort_unstable();
         out.dedup();
         out.retain(|&i| volume.touches(&self.shape_at(i as usize)));

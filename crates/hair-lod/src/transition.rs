@@ -264,6 +264,32 @@ fn pull(h: &Hierarchy, state: &mut LodState, parent: u32, rate: Real) {
 /// the child's rest shape bent by its own motion against the same rest shape bent by the
 /// children's average motion.
 fn merge_gap(h: &Hierarchy, state: &LodState, parent: u32) -> Real {
+    MERGE_SCRATCH.with_borrow_mut(|scratch| merge_gap_with(h, state, parent, scratch))
+}
+
+/// Working lists of [`merge_gap`]: the mean deviations and three polylines.
+#[derive(Default)]
+struct MergeScratch {
+    mean_t: Vec<Real>,
+    mean_p: Vec<Real>,
+    rest: Vec<Point>,
+    own: Vec<Point>,
+    merged: Vec<Point>,
+}
+
+thread_local! {
+    /// Kept per thread between calls: the adaptive policy checks merges every step, and the
+    /// step loop takes no memory.
+    static MERGE_SCRATCH: std::cell::RefCell<MergeScratch> =
+        std::cell::RefCell::new(MergeScratch::default());
+}
+
+fn merge_gap_with(
+    h: &Hierarchy,
+    state: &LodState,
+    parent: u32,
+    scratch: &mut MergeScratch,
+) -> Real {
     let n = h.control_points(parent);
     let kids = h.children(parent);
     let total: f64 = kids.clone().map(|c| f64::from(h.strand_count(c))).sum();
@@ -274,26 +300,32 @@ fn merge_gap(h: &Hierarchy, state: &LodState, parent: u32) -> Real {
             .sum::<f64>()
             / total) as Real
     };
-    let mean_t: Vec<Real> = (0..n).map(|j| mean(&state.d_theta, j)).collect();
-    let mean_p: Vec<Real> = (0..n).map(|j| mean(&state.d_phi, j)).collect();
+    let MergeScratch {
+        mean_t,
+        mean_p,
+        rest,
+        own,
+        merged,
+    } = scratch;
+    mean_t.clear();
+    mean_t.extend((0..n).map(|j| mean(&state.d_theta, j)));
+    mean_p.clear();
+    mean_p.extend((0..n).map(|j| mean(&state.d_phi, j)));
     let frame = *h.tree_frame(h.tree_of(parent)).matrix();
-    let mut rest = Vec::with_capacity(n);
-    let mut own = Vec::with_capacity(n);
-    let mut merged = Vec::with_capacity(n);
     let mut gap: Real = 0.0;
     for c in kids {
         let cs = h.control_point_start(c);
         let live = state.count[c as usize] as usize;
-        h.rest_points_into(c, &mut rest);
+        h.rest_points_into(c, rest);
         let ct = &state.d_theta[cs..cs + n];
         let cp = &state.d_phi[cs..cs + n];
         if ct == &mean_t[..] && cp == &mean_p[..] {
             continue;
         }
         let lengths = &state.length[cs..cs + n];
-        bent(&frame, &rest, lengths, ct, cp, &mut own);
-        bent(&frame, &rest, lengths, &mean_t, &mean_p, &mut merged);
-        for (a, b) in own.iter().zip(&merged).take(live) {
+        bent(&frame, rest, lengths, ct, cp, own);
+        bent(&frame, rest, lengths, mean_t, mean_p, merged);
+        for (a, b) in own.iter().zip(merged.iter()).take(live) {
             gap = gap.max((a - b).norm());
         }
     }
