@@ -63,8 +63,9 @@ fn run(
 }
 
 /// Every built-in scene for 100 steps: finite, every step after the ramp within the scene's
-/// penetration tolerance, and the same hash on 1 and 2 threads (compared after 20 steps to keep
-/// the single-threaded half of the suite short).
+/// penetration tolerance, and the same hash on 1, 2 and 5 threads (compared after 20 steps to
+/// keep the suite short; five is more threads than CI has cores, and splits the work into more
+/// blocks than two do).
 fn check_scene(name: &str) {
     let (h2, _, worst, tolerance) = run(name, LodPolicy::Fine, 100, 20, 2);
     assert!(
@@ -73,6 +74,8 @@ fn check_scene(name: &str) {
     );
     let (h1, _, _, _) = run(name, LodPolicy::Fine, 20, 20, 1);
     assert_eq!(h1, h2, "{name}: hash differs between 1 and 2 threads");
+    let (h5, _, _, _) = run(name, LodPolicy::Fine, 20, 20, 5);
+    assert_eq!(h5, h2, "{name}: hash differs between 2 and 5 threads");
 }
 
 #[test]
@@ -115,6 +118,8 @@ fn adaptive_policy_is_deterministic_and_coarser_than_fine() {
     let (a1, _, _, _) = run("wardlin", LodPolicy::Adaptive, 8, 8, 1);
     let (a2, _, _, _) = run("wardlin", LodPolicy::Adaptive, 8, 8, 2);
     assert_eq!(a1, a2, "adaptive: hash differs between 1 and 2 threads");
+    let (a5, _, _, _) = run("wardlin", LodPolicy::Adaptive, 8, 8, 5);
+    assert_eq!(a5, a2, "adaptive: hash differs between 2 and 5 threads");
     let scene = Scene::load("wardlin").unwrap();
     let sim = Simulation::new(&scene, LodPolicy::Adaptive).unwrap();
     let fine = Simulation::new(&scene, LodPolicy::Fine).unwrap();
