@@ -276,14 +276,11 @@ impl DistanceField {
         lo -= pad;
         hi += pad;
         let ext = hi - lo;
-        let h = (ext.x * ext.y * ext.z / vertices.max(8) as Real)
-            .cbrt()
-            .max(1e-5);
-        let dims = [
-            (ext.x / h).ceil() as usize + 2,
-            (ext.y / h).ceil() as usize + 2,
-            (ext.z / h).ceil() as usize + 2,
-        ];
+        // Vertices farther apart than `f32` spans: no field ([`DistanceField::query`] then
+        // answers by the exact query).
+        let Some((h, dims)) = lattice(&ext, vertices.max(8), 1e-5, 2) else {
+            return Self::default();
+        };
         let [bx, by, bz] = dims.map(|d| d.div_ceil(4));
         let samples = (0..bx * by * bz * 4)
             .map(|_| BrickLayer::unknown())
@@ -335,7 +332,8 @@ impl DistanceField {
     /// the field (farther than its margin from the body).
     pub fn query(&self, body: &BodyModel, p: &Point) -> Option<(Real, Vector)> {
         if self.samples.is_empty() {
-            return None;
+            // No field (an empty body, or one too large for `f32`): the exact query.
+            return body.signed_distance(p).map(|(d, n, _)| (d, n));
         }
         let q = (p - self.min) / self.h;
         if !(q.x >= 0.0 && q.y >= 0.0 && q.z >= 0.0) {
@@ -489,6 +487,49 @@ pub struct NearField {
     reach: Real,
 }
 
+/// The spacing and the samples per axis of a lattice over extents `ext` with about `target`
+/// samples and never more than twice as many, `pad` more per axis, never finer than
+/// `min_spacing`; `None` for non-finite extents. The spacing starts at the cube root of the
+/// volume per sample. A flat or needle-thin body has a volume near zero, and that spacing
+/// alone would ask for billions of samples along its long sides (a torus placed 1e30 m away
+/// collapses flat in `f32`, and asked for 41 GB): the spacing is widened until the count fits.
+fn lattice(
+    ext: &Vector,
+    target: usize,
+    min_spacing: Real,
+    pad: usize,
+) -> Option<(Real, [usize; 3])> {
+    if !ext.iter().all(|e| e.is_finite() && *e >= 0.0) {
+        return None;
+    }
+    let dims_at = |h: Real| {
+        [ext.x, ext.y, ext.z].map(|e| {
+            let d = (e / h).ceil();
+            // Saturating: a count beyond `usize` fails the product below.
+            if d < usize::MAX as Real {
+                d as usize + pad
+            } else {
+                usize::MAX
+            }
+        })
+    };
+    let fits = |dims: &[usize; 3]| {
+        dims.iter()
+            .try_fold(1usize, |n, &d| n.checked_mul(d))
+            .is_some_and(|n| n <= 2 * target)
+    };
+    let mut h = (ext.x * ext.y * ext.z / target as Real)
+        .cbrt()
+        .max(min_spacing);
+    let mut dims = dims_at(h);
+    // Each round cuts every count by a fifth: a few dozen rounds reach any finite extent.
+    while !fits(&dims) && h.is_finite() {
+        h *= 1.25;
+        dims = dims_at(h);
+    }
+    fits(&dims).then_some((h, dims))
+}
+
 impl NearField {
     /// Builds the field for points up to `margin` away from the surface.
     pub fn build(body: &BodyModel, margin: Real) -> Self {
@@ -505,13 +546,11 @@ impl NearField {
         lo -= pad;
         hi += pad;
         let ext = hi - lo;
-        // About 40,000 cells whatever the body's size.
-        let cell = (ext.x * ext.y * ext.z / 40_000.0).cbrt().max(1e-4);
-        let dims = [
-            (ext.x / cell).ceil() as usize + 1,
-            (ext.y / cell).ceil() as usize + 1,
-            (ext.z / cell).ceil() as usize + 1,
-        ];
+        // About 40,000 cells whatever the body's size. Vertices farther apart than `f32` spans:
+        // no near field (every point counts as near).
+        let Some((cell, dims)) = lattice(&ext, 40_000, 1e-4, 1) else {
+            return Self::default();
+        };
         let reach = 0.5 * cell * 3f32.sqrt() + margin;
         let centre = (0..dims[0] * dims[1] * dims[2])
             .into_par_iter()
@@ -740,6 +779,32 @@ mod tests {
     use hair_ssv::test_meshes::{HEAD, SHOULDERS, SplitMix};
 
     const NECK: Real = hair_ssv::test_meshes::NECK_RADIUS;
+
+    /// A flat body (zero volume) gets a field and a near grid of about the asked number of
+    /// samples, not the billions its volume alone would ask for; non-finite extents get none.
+    #[test]
+    fn a_flat_body_gets_bounded_lattices() {
+        let flat: Vec<Point> = (0..100)
+            .map(|k| Point::new((k % 10) as Real * 0.04, 0.0, (k / 10) as Real * 0.04))
+            .collect();
+        let field = DistanceField::new(&flat, 0.0, 1_000_000);
+        let samples: usize = field.dims.iter().product();
+        assert!((500_000..=2_000_000).contains(&samples), "{:?}", field.dims);
+        for ext in [
+            Vector::new(0.4, 0.0, 0.4),
+            Vector::new(0.0, 0.0, 0.5),
+            Vector::new(1e30, 1e-30, 0.0),
+        ] {
+            let (h, dims) = lattice(&ext, 40_000, 1e-4, 1).expect("finite extents");
+            let n: usize = dims.iter().product();
+            assert!(h >= 1e-4 && n <= 80_000, "{ext:?}: {h} {dims:?}");
+        }
+        assert!(lattice(&Vector::new(Real::INFINITY, 1.0, 1.0), 10, 1e-4, 1).is_none());
+        assert!(lattice(&Vector::new(Real::NAN, 1.0, 1.0), 10, 1e-4, 1).is_none());
+        // A body too wide for `f32` gets no field, and queries go exact.
+        let wide = [Point::new(-3e38, 0.0, 0.0), Point::new(3e38, 0.0, 0.0)];
+        assert!(DistanceField::new(&wide, 0.0, 1000).samples.is_empty());
+    }
 
     /// Whether `p` lies inside the ellipsoid `e` shrunk to `scale` of its semi-axes.
     fn in_ellipsoid(e: ([Real; 3], [Real; 3]), scale: Real, p: &Point) -> bool {

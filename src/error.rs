@@ -57,4 +57,15 @@ pub enum HairError {
     /// The level-of-detail layer rejected a transition.
     #[error("lod: {0}")]
     Lod(#[from] hair_lod::LodError),
+    /// A drawn strand went non-finite although the state is finite: its skeleton has been
+    /// thrown so far (by a huge gravity or wind, say) that its curve overflows.
+    #[error(
+        "step {step}: drawn strand {strand} went non-finite (its skeleton's nodes are finite, but too far out to draw: the hair has left the scene)"
+    )]
+    NonFiniteRender {
+        /// The step counter at which it happened.
+        step: u64,
+        /// The strand.
+        strand: usize,
+    },
 }

@@ -339,7 +339,12 @@ impl Simulation {
             sim.refresh_front();
         }
         sim.initial = sim.state.clone();
-        sim.update_render_geometry();
+        if !sim.update_render_geometry() {
+            return Err(HairError::NonFiniteRender {
+                step: 0,
+                strand: sim.first_non_finite_strand(),
+            });
+        }
         Ok(sim)
     }
 
@@ -444,7 +449,8 @@ impl Simulation {
     /// nothing whips. Offsets compose; the drawn geometry follows from the next update.
     pub fn teleport(&mut self, offset: Isometry3<Real>) {
         self.teleport = offset * self.teleport;
-        self.update_render_geometry();
+        // An offset too large to draw is reported by the next step.
+        let _finite = self.update_render_geometry();
     }
 
     /// The accumulated teleport offset (world from the scene's head path).
@@ -549,7 +555,8 @@ impl Simulation {
         // salon (issue 8): back to the start of the script.
         self.salon
             .reset(&self.state, &self.hierarchy, &self.node_radius);
-        self.update_render_geometry();
+        // The initial state, drawn when the simulation was built.
+        let _finite = self.update_render_geometry();
     }
 
     /// Every strand's offsets from every node that contains it, then the assignment of strands
@@ -953,8 +960,14 @@ impl Simulation {
                 .extend_from_slice(self.state.positions());
         }
 
-        // 7. Render geometry.
-        self.update_render_geometry();
+        // 7. Render geometry. A finite state can still be too far out to draw (hair thrown
+        // 1e26 m by a huge gravity): that is an error, not non-finite points handed on.
+        if !self.update_render_geometry() {
+            return Err(HairError::NonFiniteRender {
+                step: stats.step,
+                strand: self.first_non_finite_strand(),
+            });
+        }
         // salon (issue 8): cut strands end at the cut; fallen pieces are drawn.
         self.salon.render(
             &self.state,
@@ -1241,8 +1254,20 @@ impl Simulation {
         h ^ (h >> 31)
     }
 
-    /// Rebuilds every rendered strand from its front node, in world coordinates.
-    fn update_render_geometry(&mut self) {
+    /// The first drawn strand with a non-finite point (0 if none).
+    fn first_non_finite_strand(&self) -> usize {
+        let verts = self.render.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
+        self.render
+            .positions
+            .iter()
+            .position(|p| !p.coords.iter().all(|c| c.is_finite()))
+            .map_or(0, |i| i / verts)
+    }
+
+    /// Rebuilds every rendered strand from its front node, in world coordinates; false when a
+    /// drawn point is not finite.
+    #[must_use]
+    fn update_render_geometry(&mut self) -> bool {
         let h = &self.hierarchy;
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
         let n_strands = h.strand_total();
@@ -1294,14 +1319,17 @@ impl Simulation {
                 catmull_rom_into(&control[..count], sub, out);
             });
         let (scratch, rank) = (&self.render_scratch, &self.strand_rank);
+        // Checked as copied (the points are in cache): every strand, whatever the others hold.
         self.render
             .positions
             .par_chunks_mut(verts)
             .zip(rank.par_iter())
-            .for_each(|(out, &k)| {
+            .map(|(out, &k)| {
                 let k = k as usize * verts;
                 out.copy_from_slice(&scratch[k..k + verts]);
-            });
+                out.iter().all(|p| p.coords.iter().all(|c| c.is_finite()))
+            })
+            .reduce(|| true, |a, b| a && b)
     }
 }
 

@@ -25,12 +25,17 @@ impl CellBox {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct OverLimit;
 
-/// `floor` as an integer, without a libm call (`as` saturates; callers have validated
-/// finiteness and range).
+/// `floor` as an integer, without a libm call. `as` saturates, and so does the step down: a
+/// value far below the lattice gives `i64::MIN`, which the callers' range checks reject (a
+/// plain `t - 1` overflowed there, on hair thrown 1e26 m away).
 #[inline]
 pub(crate) fn floor_i(v: f64) -> i64 {
     let t = v as i64;
-    if (t as f64) > v { t - 1 } else { t }
+    if (t as f64) > v {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 /// `floor` of a value `|v| < 2^51` (finite), without the saturating float-to-integer conversion:

@@ -182,3 +182,98 @@ fn body_cells_hold_every_touching_section_and_triangle() {
     }
     assert!(BodyGrid::new(&vertices, &[[0, 1, 9]], 0.01, 0.0, 100).is_err());
 }
+
+/// A section reaching far below the lattice (hair thrown 1e26 m by a huge gravity) is an error
+/// naming it; the floor of its far end once overflowed (a panic with overflow checks on).
+#[test]
+fn a_section_far_below_the_lattice_is_an_error() {
+    // The cells of the hair around it (the default would average the thrown length in).
+    let mut grid = Grid::new(GridConfig {
+        cell_size: Some(0.01),
+        ..GridConfig::default()
+    });
+    let near = seg(Point::origin(), Point::new(0.01, 0.0, 0.0), 0.001);
+    for far in [-1e26f32, 1e26, -3e38] {
+        let thrown = seg(Point::origin(), Point::new(far, 0.0, 0.0), 0.001);
+        let err = grid.rebuild(&[near, thrown]).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                GridError::OutsideLattice {
+                    index: 1,
+                    axis: 'x',
+                    ..
+                } | GridError::TooManyCells { index: 1, .. }
+            ),
+            "{far}: {err}"
+        );
+    }
+}
+
+/// Sections much fatter than long take their mean diameter as the default cell size, so that
+/// each covers a few cells; their pairs are still every overlapping pair (brute force).
+#[test]
+fn fat_sections_take_cells_of_their_diameter() {
+    let mut sections = Vec::new();
+    for s in 0..20u32 {
+        for k in 0..5u32 {
+            let x = 0.05 * s as f32;
+            let y = -0.01 * k as f32;
+            sections.push(Section {
+                skeleton: s,
+                segment: k,
+                shape: Ssv::Line(Lss::new(
+                    Point::new(x, y, 0.0),
+                    Point::new(x, y - 0.01, 0.0),
+                    0.3,
+                )),
+            });
+        }
+    }
+    let mut grid = Grid::new(GridConfig::default());
+    grid.rebuild(&sections).unwrap();
+    assert!(
+        (grid.cell_size() - 0.6).abs() < 1e-4,
+        "{}",
+        grid.cell_size()
+    );
+    let mut pairs = hair_grid::PairSet::new();
+    grid.overlapping_pairs(&mut pairs);
+    let mut found = pairs.to_vec();
+    found.sort_unstable();
+    let mut brute = Vec::new();
+    for i in 0..sections.len() {
+        for j in i + 1..sections.len() {
+            let (a, b) = (&sections[i], &sections[j]);
+            if a.skeleton == b.skeleton && a.segment.abs_diff(b.segment) <= 1 {
+                continue;
+            }
+            if a.shape.distance(&b.shape) <= 0.0 {
+                brute.push([i as u32, j as u32]);
+            }
+        }
+    }
+    assert_eq!(found, brute);
+}
+
+/// Sections measured in the billions of metres (lengths and radii clamp at 1e9 m each) do not
+/// overflow the mean's integer sum: the grid builds or gives an error, never a panic.
+#[test]
+fn huge_sections_do_not_overflow_the_mean() {
+    let mut grid = Grid::new(GridConfig::default());
+    let long = seg(Point::origin(), Point::new(3e10, 0.0, 0.0), 0.001);
+    let fat = seg(Point::origin(), Point::new(0.01, 0.0, 0.0), 1e30);
+    for shape in [long, fat] {
+        // A few dozen such sections: 20 x 1e18 nm passes `u64::MAX`.
+        match grid.rebuild(&vec![shape; 40]) {
+            Ok(()) => assert!(grid.cell_size().is_finite() && grid.cell_size() > 0.0),
+            Err(e) => assert!(
+                matches!(
+                    e,
+                    GridError::OutsideLattice { .. } | GridError::TooManyCells { .. }
+                ),
+                "{e}"
+            ),
+        }
+    }
+}
