@@ -912,16 +912,19 @@ impl Grid {
                 } else {
                     // Per chunk, a plain loop (no per-section closure calls from rayon).
                     // Saturating: a section may measure up to 1e18 nm, and a sum of terms that
-                    // are never negative saturates to the same value in any order.
+                    // are never negative saturates to the same value in any order. The radii
+                    // are summed per chunk as floats (the chunks do not depend on the thread
+                    // count), then in nanometres.
                     let (total, radii) = sections
                         .par_chunks(CHUNK)
                         .map(|c| {
-                            c.iter().fold((0u64, 0u64), |(l, r), s| {
+                            let (l, r) = c.iter().fold((0u64, 0f64), |(l, r), s| {
                                 (
                                     l.saturating_add(nanometres(core_length(&s.shape))),
-                                    r.saturating_add(nanometres(f64::from(s.shape.radius()))),
+                                    r + f64::from(s.shape.radius()),
                                 )
-                            })
+                            });
+                            (l, nanometres(r))
                         })
                         .reduce(
                             || (0, 0),
