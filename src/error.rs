@@ -57,10 +57,11 @@ pub enum HairError {
     /// The level-of-detail layer rejected a transition.
     #[error("lod: {0}")]
     Lod(#[from] hair_lod::LodError),
-    /// A drawn strand went non-finite although the state is finite: its skeleton has been
-    /// thrown so far (by a huge gravity or wind, say) that its curve overflows.
+    /// A drawn strand went non-finite, or beyond 1e36 m, although the state is finite: its
+    /// skeleton has been thrown so far (by a huge gravity or wind, say) that its curve could
+    /// overflow.
     #[error(
-        "step {step}: drawn strand {strand} went non-finite (its skeleton's nodes are finite, but too far out to draw: the hair has left the scene)"
+        "step {step}: drawn strand {strand} went non-finite or beyond 1e36 m (its skeleton's nodes are finite, but too far out to draw: the hair has left the scene)"
     )]
     NonFiniteRender {
         /// The step counter at which it happened.

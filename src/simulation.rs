@@ -1254,18 +1254,18 @@ impl Simulation {
         h ^ (h >> 31)
     }
 
-    /// The first drawn strand with a non-finite point (0 if none).
+    /// The first drawn strand with a point not within [`DRAWABLE`] of the origin (0 if none).
     fn first_non_finite_strand(&self) -> usize {
         let verts = self.render.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
         self.render
             .positions
             .iter()
-            .position(|p| !p.coords.iter().all(|c| c.is_finite()))
+            .position(|p| !p.coords.iter().all(|c| c.abs() < DRAWABLE))
             .map_or(0, |i| i / verts)
     }
 
     /// Rebuilds every rendered strand from its front node, in world coordinates; false when a
-    /// drawn point is not finite.
+    /// control point is not within [`DRAWABLE`] of the origin (non-finite included).
     #[must_use]
     fn update_render_geometry(&mut self) -> bool {
         let h = &self.hierarchy;
@@ -1301,10 +1301,13 @@ impl Simulation {
         let order = &self.strand_order;
         self.render_scratch
             .resize(n_strands * verts, Point::origin());
-        self.render_scratch
+        // Each strand's control points are checked as they are made (in registers, no branch):
+        // a curve through points within `DRAWABLE` of the origin stays finite.
+        let drawable = self
+            .render_scratch
             .par_chunks_mut(verts)
             .zip(order.par_iter())
-            .for_each(|(out, &s)| {
+            .map(|(out, &s)| {
                 let s = s as usize;
                 let node = strand_node[s];
                 let r = state.nodes(SkeletonId(node));
@@ -1312,26 +1315,35 @@ impl Simulation {
                 let frames = &node_frames[r.clone()];
                 let mut control = [Point::origin(); 64];
                 let count = p.len().min(per).min(64);
+                let mut ok = true;
                 for k in 0..count {
                     control[k] =
                         origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
+                    let c = control[k];
+                    // False for NaN too.
+                    ok &= (c.x.abs() < DRAWABLE) & (c.y.abs() < DRAWABLE) & (c.z.abs() < DRAWABLE);
                 }
                 catmull_rom_into(&control[..count], sub, out);
-            });
+                ok
+            })
+            .reduce(|| true, |a, b| a && b);
         let (scratch, rank) = (&self.render_scratch, &self.strand_rank);
-        // Checked as copied (the points are in cache): every strand, whatever the others hold.
         self.render
             .positions
             .par_chunks_mut(verts)
             .zip(rank.par_iter())
-            .map(|(out, &k)| {
+            .for_each(|(out, &k)| {
                 let k = k as usize * verts;
                 out.copy_from_slice(&scratch[k..k + verts]);
-                out.iter().all(|p| p.coords.iter().all(|c| c.is_finite()))
-            })
-            .reduce(|| true, |a, b| a && b)
+            });
+        drawable
     }
 }
+
+/// Drawn control points farther than this from the origin (m) stop a step with
+/// [`HairError::NonFiniteRender`]: hair there has left any scene, and the curves through such
+/// points (sums of a few multiples of them) could overflow `f32`.
+const DRAWABLE: Real = 1e36;
 
 /// The transport frames of the skeletons whose node ranges are `ranges` (ascending, disjoint,
 /// inside `base..base + frames.len()`) into `frames`, split in halves across threads.
