@@ -64,7 +64,7 @@ impl View {
 }
 
 /// The adaptive front and the motion that travels between its levels.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct AdaptiveLod {
     front: Front,
     lod: LodState,
@@ -82,63 +82,6 @@ pub struct AdaptiveLod {
     /// Per node: the speed it is judged by, its own held against a decay ([`SPEED_HOLD`]).
     held_speed: Vec<Real>,
     last: TransitionReport,
-}
-
-/// `clone_from` copies into the buffers already held, which keep the room they grew to: a
-/// reset then takes no memory in the steps that follow.
-impl Clone for AdaptiveLod {
-    fn clone(&self) -> Self {
-        Self {
-            front: self.front.clone(),
-            lod: self.lod.clone(),
-            plan: self.plan.clone(),
-            select: self.select,
-            merge: self.merge,
-            cull_hidden: self.cull_hidden,
-            visible: self.visible.clone(),
-            distance: self.distance.clone(),
-            speed: self.speed.clone(),
-            activity: self.activity.clone(),
-            was_active: self.was_active.clone(),
-            unseen_for: self.unseen_for.clone(),
-            held_speed: self.held_speed.clone(),
-            last: self.last,
-        }
-    }
-
-    fn clone_from(&mut self, from: &Self) {
-        // Every field named: a new one is a compile error here until it is copied too.
-        let Self {
-            front,
-            lod,
-            plan,
-            select,
-            merge,
-            cull_hidden,
-            visible,
-            distance,
-            speed,
-            activity,
-            was_active,
-            unseen_for,
-            held_speed,
-            last,
-        } = self;
-        front.clone_from(&from.front);
-        lod.clone_from(&from.lod);
-        plan.clone_from(&from.plan);
-        *select = from.select;
-        *merge = from.merge;
-        *cull_hidden = from.cull_hidden;
-        visible.clone_from(&from.visible);
-        distance.clone_from(&from.distance);
-        speed.clone_from(&from.speed);
-        activity.clone_from(&from.activity);
-        was_active.clone_from(&from.was_active);
-        unseen_for.clone_from(&from.unseen_for);
-        held_speed.clone_from(&from.held_speed);
-        *last = from.last;
-    }
 }
 
 /// Steps an active node must stay out of sight before it counts as hidden (asks for the
@@ -160,6 +103,15 @@ pub const HIDDEN_AFTER: u32 = 15;
 pub const SPEED_HOLD: Real = 0.9;
 
 impl AdaptiveLod {
+    /// Becomes a copy of `initial`, keeping the plan's lists: the plan is refilled every step,
+    /// and its lists keep the room they grew to, so the steps after a reset take no memory
+    /// (every other buffer is sized by the hierarchy and comes back at full size).
+    pub(crate) fn reset_to(&mut self, initial: &Self) {
+        let plan = std::mem::take(&mut self.plan);
+        *self = initial.clone();
+        self.plan = plan;
+    }
+
     /// Starts at the coarsest front (every root strip).
     pub fn new(h: &Hierarchy, spec: &AdaptiveSpec) -> Result<Self, HairError> {
         let select = SelectParams {

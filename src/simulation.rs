@@ -342,7 +342,7 @@ impl Simulation {
         if !sim.update_render_geometry() {
             return Err(HairError::NonFiniteRender {
                 step: 0,
-                strand: sim.first_non_finite_strand(),
+                strand: sim.first_undrawable_strand(),
             });
         }
         Ok(sim)
@@ -547,7 +547,7 @@ impl Simulation {
         self.frame_render.positions.clear();
         if let Some(lod) = &self.initial_adaptive {
             match &mut self.adaptive {
-                Some(current) => current.clone_from(lod),
+                Some(current) => current.reset_to(lod),
                 None => self.adaptive = Some(lod.clone()),
             }
             self.refresh_front();
@@ -965,7 +965,7 @@ impl Simulation {
         if !self.update_render_geometry() {
             return Err(HairError::NonFiniteRender {
                 step: stats.step,
-                strand: self.first_non_finite_strand(),
+                strand: self.first_undrawable_strand(),
             });
         }
         // salon (issue 8): cut strands end at the cut; fallen pieces are drawn.
@@ -1255,7 +1255,7 @@ impl Simulation {
     }
 
     /// The first drawn strand with a point not within [`DRAWABLE`] of the origin (0 if none).
-    fn first_non_finite_strand(&self) -> usize {
+    fn first_undrawable_strand(&self) -> usize {
         let verts = self.render.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
         self.render
             .positions

@@ -87,17 +87,22 @@ fn numbers(text: &str) -> Vec<(usize, usize)> {
     out
 }
 
+/// A scene made in memory, its relative paths (none here) read from the working directory.
+fn loaded(scene: Scene) -> hair::scene::LoadedScene {
+    hair::scene::LoadedScene {
+        source: format!("{}.ron", scene.name),
+        scene,
+        base_dir: std::path::PathBuf::from("."),
+    }
+}
+
 /// Builds and steps `text`; panics (failing the property) only on a panic inside the library or
 /// a non-finite state after a step that returned `Ok`.
 fn exercise(text: &str) {
     let Ok(scene) = Scene::from_ron(text, "fuzz.ron") else {
         return;
     };
-    let loaded = hair::scene::LoadedScene {
-        scene,
-        base_dir: std::path::PathBuf::from("."),
-        source: "fuzz.ron".into(),
-    };
+    let loaded = loaded(scene);
     for policy in [LodPolicy::Fine, LodPolicy::Adaptive] {
         let Ok(mut sim) = Simulation::new(&loaded, policy) else {
             continue;
@@ -164,12 +169,7 @@ proptest! {
 #[test]
 fn the_bases_simulate() {
     for text in BASES {
-        let scene = Scene::from_ron(text, "base.ron").expect("base scene parses");
-        let loaded = hair::scene::LoadedScene {
-            scene,
-            base_dir: std::path::PathBuf::from("."),
-            source: "base.ron".into(),
-        };
+        let loaded = loaded(Scene::from_ron(text, "base.ron").expect("base scene parses"));
         let mut sim = Simulation::new(&loaded, LodPolicy::Fine).expect("base scene builds");
         for _ in 0..6 {
             sim.step().expect("base scene steps");

@@ -1,5 +1,8 @@
 //! Bad input gives a typed error, never a hang or a panic; body cells agree with brute force.
 
+mod common;
+
+use common::brute_pairs;
 use hair_grid::{BodyCells, BodyGrid, Cone, Grid, GridConfig, GridError, InfluenceVolume, Section};
 use hair_ssv::{Lss, Point, Ssv, Vector};
 
@@ -241,18 +244,7 @@ fn fat_sections_take_cells_of_their_diameter() {
     grid.overlapping_pairs(&mut pairs);
     let mut found = pairs.to_vec();
     found.sort_unstable();
-    let mut brute = Vec::new();
-    for i in 0..sections.len() {
-        for j in i + 1..sections.len() {
-            let (a, b) = (&sections[i], &sections[j]);
-            if a.skeleton == b.skeleton && a.segment.abs_diff(b.segment) <= 1 {
-                continue;
-            }
-            if a.shape.distance(&b.shape) <= 0.0 {
-                brute.push([i as u32, j as u32]);
-            }
-        }
-    }
+    let brute = brute_pairs(&sections, 0.0, 1);
     assert_eq!(found, brute);
 }
 

@@ -239,7 +239,7 @@ impl Front {
 }
 
 /// The changes one step makes, in the order [`crate::apply`] makes them.
-#[derive(Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Plan {
     /// Trees whose root strip is not visible: collapse to the root strip (any number of levels).
     pub collapses: Vec<u32>,
@@ -250,29 +250,6 @@ pub struct Plan {
     pub merges: Vec<u32>,
     /// Active nodes that ask to be finer, parents before children.
     pub splits: Vec<u32>,
-}
-
-/// `clone_from` copies into the lists already held, which keep the room they grew to (a plan is
-/// refilled every step).
-impl Clone for Plan {
-    fn clone(&self) -> Self {
-        let mut copy = Self::default();
-        copy.clone_from(self);
-        copy
-    }
-
-    fn clone_from(&mut self, from: &Self) {
-        let Self {
-            collapses,
-            restores,
-            merges,
-            splits,
-        } = self;
-        collapses.clone_from(&from.collapses);
-        restores.clone_from(&from.restores);
-        merges.clone_from(&from.merges);
-        splits.clone_from(&from.splits);
-    }
 }
 
 impl Plan {
