@@ -65,6 +65,56 @@ fn check_pair(ua: &Ssv, ub: &Ssv, k: Real) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Ours on the SSV and triangle scaled by `k` against parry on the unit ones scaled back.
+fn check_triangle(ua: &Ssv, ut: &[Point; 3], k: Real) -> Result<(), TestCaseError> {
+    let a = scale_ssv(ua, k);
+    let t = scale_tri(ut, k);
+    let kk = k as f64;
+    let tol = TOL * kk;
+    let c = a.closest_to_triangle(&t);
+    prop_assert!(c.dist_sq.is_finite());
+    let ours = c.distance() as f64;
+    let oracle = oracle_core_triangle_distance(ua, ut) * kk;
+    prop_assert!(
+        (ours - oracle).abs() <= tol,
+        "ours {ours} parry {oracle} for {a:?} {t:?}"
+    );
+    let tri = parry_triangle(ut);
+    let on_b =
+        tri.distance_to_point(&parry3d_f64::math::Pose::IDENTITY, v64(&c.on_b) / kk, true) * kk;
+    prop_assert!(on_b <= tol, "closest point off the triangle by {on_b}");
+    Ok(())
+}
+
+/// A sliver 2 km long and about 0.5 m thick (found by `ssv_triangle_matches_parry`): its `f32`
+/// normal cancelled to `(0, 0, 0.03)`, and the point 374 m off its edge was found over it, at
+/// distance 0. Segments near it exercise the piercing test, which had the same normal.
+#[test]
+fn slivers_keep_their_distance() {
+    let k = 1000.0;
+    let t = [
+        Point::new(0.2528669, -1.0, 0.0),
+        Point::new(0.0, 1.0, 0.3805519),
+        Point::new(0.06542134, 0.48256302, 0.2820961),
+    ];
+    let p = Point::new(0.0, 1.0, 0.0);
+    let cases = [
+        Ssv::Point(Pss::new(p, 0.0)),
+        Ssv::Line(Lss::new(p, Point::new(0.1, -1.0, 0.05), 0.0)),
+        Ssv::Line(Lss::new(p, Point::new(0.05, 1.0, 0.4), 0.0)),
+        Ssv::Line(Lss::new(
+            Point::new(0.0, 0.0, 0.0),
+            Point::new(0.3, 0.2, 0.4),
+            0.0,
+        )),
+    ];
+    for ua in &cases {
+        if let Err(e) = check_triangle(ua, &t, k) {
+            panic!("{ua:?}: {e}");
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(600))]
 
@@ -109,18 +159,7 @@ proptest! {
 
     #[test]
     fn ssv_triangle_matches_parry(ua in ssv(), ut in triangle(), k in scale()) {
-        let a = scale_ssv(&ua, k);
-        let t = scale_tri(&ut, k);
-        let kk = k as f64;
-        let tol = TOL * kk;
-        let c = a.closest_to_triangle(&t);
-        prop_assert!(c.dist_sq.is_finite());
-        let ours = c.distance() as f64;
-        let oracle = oracle_core_triangle_distance(&ua, &ut) * kk;
-        prop_assert!((ours - oracle).abs() <= tol, "ours {ours} parry {oracle} for {a:?} {t:?}");
-        let tri = parry_triangle(&ut);
-        let on_b = tri.distance_to_point(&parry3d_f64::math::Pose::IDENTITY, v64(&c.on_b) / kk, true) * kk;
-        prop_assert!(on_b <= tol, "closest point off the triangle by {on_b}");
+        check_triangle(&ua, &ut, k)?;
     }
 
     #[test]

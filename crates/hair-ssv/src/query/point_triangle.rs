@@ -2,38 +2,62 @@
 
 use super::{Closest, point_segment};
 use crate::{Point, Real};
-use wide::f32x4;
+use std::ops::{Add, Mul, Sub};
+use wide::{f32x4, f64x4};
 
 /// Closest points between the point `p` and the triangle `tri`.
 ///
 /// The point projects onto the plane when it lies over the triangle (signs of three edge
-/// cross products, which stay well conditioned for slivers and at large coordinates); otherwise
-/// the closest point is on an edge. A degenerate triangle (collinear or repeated vertices) is
-/// handled as its edges.
+/// cross products); otherwise the closest point is on an edge. A degenerate triangle (collinear
+/// or repeated vertices) is handled as its edges.
+///
+/// The plane, the three signs and the projection are computed in `f64`
+/// ([`over_triangle`]): in `f32` the normal of a sliver cancels (a triangle 2 km across and
+/// 0.5 m thick got the normal `(0, 0, 0.03)`), and a point 374 m off its edge was then found
+/// over it, at distance 0.
 #[inline]
 pub fn point_triangle(p: &Point, tri: &[Point; 3]) -> Closest {
-    let [a, b, c] = tri;
-    let ab = b - a;
-    let ac = c - a;
-    let n = ab.cross(&ac);
-    let nn = n.norm_squared();
-    let ap = p - a;
-    if nn > 0.0 {
-        let bp = p - b;
-        let cp = p - c;
-        let over = ab.cross(&ap).dot(&n) >= 0.0
-            && (c - b).cross(&bp).dot(&n) >= 0.0
-            && (a - c).cross(&cp).dot(&n) >= 0.0;
-        if over {
-            let q = p - n * (n.dot(&ap) / nn);
-            if q.coords.iter().all(|x| x.is_finite()) {
-                return Closest::from_points(*p, q);
-            }
-        }
+    if let Some(q) = over_triangle(p, tri) {
+        return Closest::from_points(*p, q);
     }
-    point_segment(p, a, b)
-        .min(point_segment(p, b, c))
-        .min(point_segment(p, c, a))
+    point_segment(p, &tri[0], &tri[1])
+        .min(point_segment(p, &tri[1], &tri[2]))
+        .min(point_segment(p, &tri[2], &tri[0]))
+}
+
+/// A point in `f64`. The difference of two `f32` values is exact in `f64`, and so is the
+/// product of two such differences, so the plane tests below round only when products are
+/// summed, at `f64` precision.
+type P64 = nalgebra::Vector3<f64>;
+
+#[inline(always)]
+pub(crate) fn p64(p: &Point) -> P64 {
+    P64::new(f64::from(p.x), f64::from(p.y), f64::from(p.z))
+}
+
+/// Whether `x` lies over the triangle `a b c` of normal `n` (`n != 0`): on the inner side of
+/// all three edges, or on one.
+#[inline(always)]
+pub(crate) fn inside_edges(x: &P64, [a, b, c]: &[P64; 3], n: &P64) -> bool {
+    (b - a).cross(&(x - a)).dot(n) >= 0.0
+        && (c - b).cross(&(x - b)).dot(n) >= 0.0
+        && (a - c).cross(&(x - c)).dot(n) >= 0.0
+}
+
+/// The projection of `p` onto the plane of `tri` when `p` lies over the triangle and the
+/// triangle is not degenerate, rounded to `f32` (`None` also when that is not finite).
+#[inline(always)]
+pub(crate) fn over_triangle(p: &Point, tri: &[Point; 3]) -> Option<Point> {
+    let t = tri.map(|v| p64(&v));
+    let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
+    let nn = n.norm_squared();
+    let x = p64(p);
+    if !(nn > 0.0 && inside_edges(&x, &t, &n)) {
+        return None;
+    }
+    let q = x - n * (n.dot(&(x - t[0])) / nn);
+    let q = Point::new(q.x as Real, q.y as Real, q.z as Real);
+    q.coords.iter().all(|v| v.is_finite()).then_some(q)
 }
 
 /// Four triangles side by side: `v[i][axis][lane]` is coordinate `axis` of vertex `i` of
@@ -64,14 +88,17 @@ impl TriLanes {
 /// Three coordinates of four lanes.
 type V4 = [f32x4; 3];
 
+/// Three coordinates of four lanes in `f64`.
+type V4d = [f64x4; 3];
+
 #[inline(always)]
-fn sub4(a: &V4, b: &V4) -> V4 {
+fn sub4<T: Copy + Sub<Output = T>>(a: &[T; 3], b: &[T; 3]) -> [T; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// nalgebra's cross product, lane by lane (the same expressions).
 #[inline(always)]
-fn cross4(a: &V4, b: &V4) -> V4 {
+fn cross4<T: Copy + Sub<Output = T> + Mul<Output = T>>(a: &[T; 3], b: &[T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -81,7 +108,7 @@ fn cross4(a: &V4, b: &V4) -> V4 {
 
 /// nalgebra's dot product of 3-vectors, lane by lane: `(x x' + y y') + z z'`.
 #[inline(always)]
-fn dot4(a: &V4, b: &V4) -> f32x4 {
+fn dot4<T: Copy + Add<Output = T> + Mul<Output = T>>(a: &[T; 3], b: &[T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -117,25 +144,33 @@ fn point_segment4(p: &V4, a: &V4, b: &V4) -> (V4, f32x4) {
 /// (the same expressions in the same order, lane by lane, and the same choices).
 #[inline]
 pub(crate) fn point_triangle_lanes(p: &Point, t: &TriLanes) -> ([[Real; 4]; 3], [Real; 4]) {
-    let zero = f32x4::ZERO;
     let pv: V4 = [f32x4::splat(p.x), f32x4::splat(p.y), f32x4::splat(p.z)];
     let [a, b, c] = t.v.map(|v| v.map(f32x4::new));
-    let ab = sub4(&b, &a);
-    let ac = sub4(&c, &a);
-    let n = cross4(&ab, &ac);
+    // The plane tests and the projection in `f64`, as `over_triangle` does them.
+    let pd: V4d = [p.x, p.y, p.z].map(|x| f64x4::splat(f64::from(x)));
+    let [ad, bd, cd]: [V4d; 3] = t.v.map(|v| v.map(|l| f64x4::new(l.map(f64::from))));
+    let n = cross4(&sub4(&bd, &ad), &sub4(&cd, &ad));
     let nn = dot4(&n, &n);
-    let ap = sub4(&pv, &a);
-    let bp = sub4(&pv, &b);
-    let cp = sub4(&pv, &c);
-    let e0 = dot4(&cross4(&ab, &ap), &n);
-    let e1 = dot4(&cross4(&sub4(&c, &b), &bp), &n);
-    let e2 = dot4(&cross4(&sub4(&a, &c), &cp), &n);
-    let s = dot4(&n, &ap) / nn;
-    let q = [pv[0] - n[0] * s, pv[1] - n[1] * s, pv[2] - n[2] * s];
+    let apd = sub4(&pd, &ad);
+    let e0 = dot4(&cross4(&sub4(&bd, &ad), &apd), &n);
+    let e1 = dot4(&cross4(&sub4(&cd, &bd), &sub4(&pd, &bd)), &n);
+    let e2 = dot4(&cross4(&sub4(&ad, &cd), &sub4(&pd, &cd)), &n);
+    let s = dot4(&n, &apd) / nn;
+    let q: V4 = [0, 1, 2].map(|k| f32x4::new((pd[k] - n[k] * s).to_array().map(|x| x as Real)));
+    let over_d = nn.simd_gt(f64x4::ZERO)
+        & e0.simd_ge(f64x4::ZERO)
+        & e1.simd_ge(f64x4::ZERO)
+        & e2.simd_ge(f64x4::ZERO);
+    // The f64 lanes' mask as an f32 one.
+    let over_d = f32x4::new(
+        over_d
+            .to_array()
+            .map(|m| if m.to_bits() != 0 { 1.0 } else { 0.0 }),
+    );
     let dq = sub4(&q, &pv);
     let q_sq = dot4(&dq, &dq);
     let finite = q[0].is_finite() & q[1].is_finite() & q[2].is_finite();
-    let over = nn.simd_gt(zero) & e0.simd_ge(zero) & e1.simd_ge(zero) & e2.simd_ge(zero) & finite;
+    let over = over_d.simd_eq(f32x4::ONE) & finite;
     // The edges as `Closest::min` chains them: a later edge only when strictly nearer.
     let (q0, d0) = point_segment4(&pv, &a, &b);
     let (q1, d1) = point_segment4(&pv, &b, &c);
