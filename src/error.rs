@@ -69,4 +69,24 @@ pub enum HairError {
         /// The strand.
         strand: usize,
     },
+    /// A strand read from a hair file has a segment of no length (or one too long to measure)
+    /// once scaled and resampled for the scene: its points coincide, or the file's units make
+    /// it vanish at the scene's `scale`.
+    #[error(
+        "{file}: strand {strand}, segment {segment}: {length} m long after scaling by {scale} and resampling to {points} points (a segment must have a positive, finite length: do the strand's points coincide, or is `scale` wrong?)"
+    )]
+    DegenerateStrand {
+        /// The hair file.
+        file: String,
+        /// The strand, counted from 0 in the file.
+        strand: usize,
+        /// The segment of the resampled strand, counted from 0 at the root.
+        segment: usize,
+        /// Its length (m).
+        length: f32,
+        /// The scene's `scale`.
+        scale: f32,
+        /// The scene's control points per strand.
+        points: u32,
+    },
 }

@@ -94,15 +94,31 @@ pub fn from_spec(spec: &HairstyleSpec, seed: u64, base_dir: &Path) -> Result<Hai
             offset,
             points,
         } => {
-            let strands = hair_io::read_strands(&base_dir.join(path))?;
+            let file = base_dir.join(path);
+            let strands = hair_io::read_strands(&file)?;
             let off = Vector::from(*offset);
             let mut out = Vec::with_capacity(strands.strand_count());
-            for s in strands.iter() {
+            for (strand, s) in strands.iter().enumerate() {
                 let pts: Vec<Point> = s
                     .iter()
                     .map(|p| Point::from(Vector::from(*p) * *scale + off))
                     .collect();
                 let pts = resample(&pts, *points as usize);
+                // The dynamics would reject it too, but could name neither the file nor the
+                // strand in it.
+                for (segment, w) in pts.windows(2).enumerate() {
+                    let length = (w[1] - w[0]).norm();
+                    if !(length.is_finite() && length > 0.0) {
+                        return Err(HairError::DegenerateStrand {
+                            file: file.display().to_string(),
+                            strand,
+                            segment,
+                            length,
+                            scale: *scale,
+                            points: *points,
+                        });
+                    }
+                }
                 let dir = (pts[1] - pts[0])
                     .try_normalize(1e-12)
                     .unwrap_or_else(|| -Vector::y());

@@ -285,6 +285,62 @@ fn every_scene_file_parses_and_bad_scenes_name_the_field() {
     assert!(Scene::load("no-such-scene").is_err());
 }
 
+/// A strand whose points coincide in a hair file is an error naming the file, the strand and
+/// the segment, and a strand that vanishes only at the scene's scale is caught the same way;
+/// the same file at a sensible scale loads.
+#[test]
+fn degenerate_strands_in_hair_files_name_the_file_and_strand() {
+    let dir = std::env::temp_dir().join(format!("hair-degenerate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("strands.hair");
+    let good: Vec<[f32; 3]> = (0..6).map(|i| [0.0, 10.0 - i as f32, 0.0]).collect();
+    let strands =
+        hair::io::Strands::from_polylines(vec![good.clone(), vec![[0.0, 10.0, 1.0]; 4], good])
+            .unwrap();
+    std::fs::write(&file, hair::io::cyhair::to_bytes(&strands)).unwrap();
+    let scene = |scale: f32, path: &std::path::Path, up: f32| {
+        Scene::from_ron(
+            &format!(
+                "Scene(hairstyle: File(path: {:?}, scale: {scale:e}, offset: (0.0, {up:e}, 0.0), points: 8))",
+                path.display().to_string()
+            ),
+            "degenerate.ron",
+        )
+        .map(|scene| hair::LoadedScene {
+            scene,
+            base_dir: dir.clone(),
+            source: "degenerate.ron".into(),
+        })
+        .unwrap()
+    };
+    match Simulation::new(&scene(0.01, &file, 0.0), LodPolicy::Fine) {
+        Err(hair::HairError::DegenerateStrand {
+            file: named,
+            strand: 1,
+            segment: 0,
+            ..
+        }) => assert!(named.ends_with("strands.hair"), "{named}"),
+        other => panic!(
+            "expected DegenerateStrand for strand 1, got {:?}",
+            other.err()
+        ),
+    }
+    // Without the coinciding strand: fine at 1 cm per unit; at 1 um per unit, 1 km up, its
+    // points round to the same floats.
+    let file = dir.join("good.hair");
+    let strands = hair::io::Strands::from_polylines(vec![
+        (0..6).map(|i| [0.0, 10.0 - i as f32, 0.0]).collect(),
+    ])
+    .unwrap();
+    std::fs::write(&file, hair::io::cyhair::to_bytes(&strands)).unwrap();
+    Simulation::new(&scene(0.01, &file, 0.0), LodPolicy::Fine).unwrap();
+    assert!(matches!(
+        Simulation::new(&scene(1e-6, &file, 1000.0), LodPolicy::Fine),
+        Err(hair::HairError::DegenerateStrand { strand: 0, .. })
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `hair_hair_push` parses, takes effect (the hair moves otherwise with `Sum` than with the
 /// default `Mean` once pairs overlap) and is deterministic across thread counts.
 #[test]

@@ -67,8 +67,42 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", one_line(&err));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line, leaving out a cause whose text the line already holds
+/// (the library's errors often include their source in their own message).
+fn one_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if !line.contains(&text) {
+            if !line.is_empty() {
+                line.push_str(": ");
+            }
+            line.push_str(&text);
+        }
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    #[test]
+    fn a_cause_already_in_the_message_is_printed_once() {
+        let dynamics =
+            hair::HairError::Dynamics(hair::dynamics::DynamicsError::NonFiniteParameter {
+                name: "dt",
+                value: f64::NAN,
+            });
+        let text = dynamics.to_string();
+        let line = one_line(&anyhow::Error::new(dynamics).context("scene.ron"));
+        assert_eq!(line, format!("scene.ron: {text}"));
+        assert_eq!(line.matches("dt").count(), 1, "{line}");
     }
 }

@@ -71,6 +71,7 @@ pub fn from_bytes(bytes: &[u8], file: &str) -> Result<Strands, IoError> {
     }
     if let Some(s) = segments.iter().position(|&s| s == 0) {
         return Err(IoError::ShortStrand {
+            file: file.into(),
             strand: s,
             count: 1,
         });

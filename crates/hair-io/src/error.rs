@@ -77,8 +77,10 @@ pub enum IoError {
         message: String,
     },
     /// A strand has fewer than two points.
-    #[error("strand {strand} has {count} points; at least 2 are needed")]
+    #[error("{file}: strand {strand} has {count} points; at least 2 are needed")]
     ShortStrand {
+        /// The file (`<memory>` for strands built in code).
+        file: String,
         /// The strand.
         strand: usize,
         /// Its point count.

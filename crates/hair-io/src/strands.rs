@@ -25,6 +25,7 @@ impl Strands {
         for (s, line) in polylines.into_iter().enumerate() {
             if line.len() < 2 {
                 return Err(IoError::ShortStrand {
+                    file: "<memory>".into(),
                     strand: s,
                     count: line.len(),
                 });
@@ -70,6 +71,7 @@ impl Strands {
             let strand = self.strand(s);
             if strand.len() < 2 {
                 return Err(IoError::ShortStrand {
+                    file: file.into(),
                     strand: s,
                     count: strand.len(),
                 });
