@@ -662,7 +662,14 @@ impl BodyModel {
                 (v, t, false)
             }
         };
-        let bvh = Bvh::new(&vertices, &triangles)?;
+        let bvh = Bvh::new(&vertices, &triangles).map_err(|source| match spec {
+            BodySpec::Obj { path, scale, .. } => HairError::BodyMesh {
+                file: base_dir.join(path).display().to_string(),
+                scale: *scale,
+                source,
+            },
+            _ => HairError::Ssv(source),
+        })?;
         let maps = if maps_wanted {
             Some(hair_ssv::test_meshes::head_and_shoulders_body(&bvh, 64)?)
         } else {
@@ -804,6 +811,37 @@ mod tests {
         // A body too wide for `f32` gets no field, and queries go exact.
         let wide = [Point::new(-3e38, 0.0, 0.0), Point::new(3e38, 0.0, 0.0)];
         assert!(DistanceField::new(&wide, 0.0, 1000).samples.is_empty());
+    }
+
+    /// An OBJ body with a degenerate triangle is an error naming the file and the triangle.
+    #[test]
+    fn a_degenerate_obj_names_its_file_and_triangle() {
+        let dir = std::env::temp_dir().join(format!("hair-body-obj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+        std::fs::write(dir.join("tet.obj"), tet).unwrap();
+        // The fourth face repeats an edge's vertex: zero area.
+        std::fs::write(dir.join("flat.obj"), tet.replace("f 2 3 4", "f 2 3 3")).unwrap();
+        let spec = |path: &str| BodySpec::Obj {
+            path: path.into(),
+            scale: 0.1,
+            offset: [0.0; 3],
+            close_holes: false,
+        };
+        assert!(
+            BodyModel::from_spec(&spec("tet.obj"), &dir)
+                .unwrap()
+                .is_some()
+        );
+        match BodyModel::from_spec(&spec("flat.obj"), &dir) {
+            Err(HairError::BodyMesh {
+                file,
+                source: hair_ssv::SsvError::DegenerateTriangle { triangle: 3, .. },
+                ..
+            }) => assert!(file.ends_with("flat.obj"), "{file}"),
+            other => panic!("expected a BodyMesh error, got {:?}", other.err()),
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// Whether `p` lies inside the ellipsoid `e` shrunk to `scale` of its semi-axes.

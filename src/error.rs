@@ -89,4 +89,15 @@ pub enum HairError {
         /// The scene's control points per strand.
         points: u32,
     },
+    /// A body mesh read from a file cannot be used for collision (a degenerate triangle, say).
+    #[error("{file}: {source} (scaled by {scale})")]
+    BodyMesh {
+        /// The mesh file.
+        file: String,
+        /// The scene's `scale` for it.
+        scale: f32,
+        /// What the collision layer found.
+        #[source]
+        source: hair_ssv::SsvError,
+    },
 }
