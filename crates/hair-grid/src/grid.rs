@@ -189,16 +189,17 @@ fn invalid_field(shape: &Ssv) -> Option<&'static str> {
     }
 }
 
-/// A core length in integer nanometres, `(l.min(1e9) * 1e9).round() as u64` (0 when not
-/// finite or negative). `round` is a libm call on the baseline target, and float to `u64`
-/// conversions take several instructions: for `0 <= x <= 1e18` the value is `trunc(x)` (an `i64`
-/// conversion), plus one when the fraction `x - trunc(x)` (exact) is at least 1/2.
+/// A length in integer nanometres, `(l.min(9e9) * 1e9).round() as u64` (0 when not finite or
+/// negative): a chunk's sum of lengths, each clamped at 1e9 m, so at most 1024e9 m; the clamp
+/// keeps the value within `i64`. `round` is a libm call on the baseline target, and float to
+/// `u64` conversions take several instructions: for `0 <= x <= 9e18` the value is `trunc(x)`
+/// (an `i64` conversion), plus one when the fraction `x - trunc(x)` (exact) is at least 1/2.
 #[inline]
 fn nanometres(l: f64) -> u64 {
     if !(l > 0.0 && l < f64::INFINITY) {
         return 0;
     }
-    let x = if l < 1e9 { l } else { 1e9 } * 1e9;
+    let x = if l < 9e9 { l } else { 9e9 } * 1e9;
     let t = x as i64;
     (t + i64::from(x - t as f64 >= 0.5)) as u64
 }
@@ -894,8 +895,8 @@ impl Grid {
         if !(margin.is_finite() && margin >= 0.0) {
             return Err(GridError::InvalidMargin { margin });
         }
-        // Cell size. The mean is summed in integer nanometres so that it does not depend on how
-        // rayon splits the work.
+        // Cell size. The mean is summed in integer nanometres across chunks so that it does not
+        // depend on how rayon splits the work.
         let h = match self.config.cell_size {
             Some(h) => {
                 if !(h.is_finite() && h > 0.0) {
@@ -910,21 +911,24 @@ impl Grid {
                 if sections.is_empty() {
                     1.0
                 } else {
-                    // Per chunk, a plain loop (no per-section closure calls from rayon).
-                    // Saturating: a section may measure up to 1e18 nm, and a sum of terms that
-                    // are never negative saturates to the same value in any order. The radii
-                    // are summed per chunk as floats (the chunks do not depend on the thread
-                    // count), then in nanometres.
+                    // Per chunk, a plain loop (no per-section closure calls from rayon), in
+                    // floats: the chunks do not depend on the thread count. Then the chunks'
+                    // sums in nanometres, saturating: a sum of terms that are never negative
+                    // saturates to the same value in any order. Each length counts at most
+                    // 1e9 m, and a non-finite one as 0.
                     let (total, radii) = sections
                         .par_chunks(CHUNK)
                         .map(|c| {
-                            let (l, r) = c.iter().fold((0u64, 0f64), |(l, r), s| {
-                                (
-                                    l.saturating_add(nanometres(core_length(&s.shape))),
-                                    r + f64::from(s.shape.radius()),
-                                )
+                            let (l, r) = c.iter().fold((0f64, 0f64), |(l, r), s| {
+                                let length = core_length(&s.shape);
+                                let length = if length > 0.0 && length < f64::INFINITY {
+                                    length.min(1e9)
+                                } else {
+                                    0.0
+                                };
+                                (l + length, r + f64::from(s.shape.radius()))
                             });
-                            (l, nanometres(r))
+                            (nanometres(l), nanometres(r))
                         })
                         .reduce(
                             || (0, 0),
