@@ -90,7 +90,9 @@
 //! in registers, and the keys and earlier-cell bit sets come from tables (by the cover's byte
 //! for a 2 x 2 x 2 range, else by the offset between two cells); every other section, and every
 //! error, takes the general path as before. The mean cell size is summed per chunk and rounded
-//! without the libm call. The count pass also reads each section's first cell, the prefix over
+//! without the libm call (later in floats per chunk, rounded once per chunk instead of once per
+//! section: 277.0 M to 271.3 M instructions per rebuild, fastest of `grid_profile build 20`
+//! 13.2-13.6 to 12.9-13.0 ms). The count pass also reads each section's first cell, the prefix over
 //! the box lists the non-empty cells in the same walk, and the pair search's order is computed
 //! before the scatter, whose two-word slots carry each entry's section and rank (looked up once
 //! per section), so that the copy out of it also renumbers the entries (no separate pass).
