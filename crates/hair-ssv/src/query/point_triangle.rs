@@ -11,8 +11,8 @@ use wide::{f32x4, f64x4};
 /// cross products); otherwise the closest point is on an edge. A degenerate triangle (collinear
 /// or repeated vertices) is handled as its edges.
 ///
-/// The plane, the three signs and the projection are computed in `f64`
-/// ([`over_triangle`]): in `f32` the normal of a sliver cancels (a triangle 2 km across and
+/// The plane, the three signs and the projection are computed in `f64`, then the point is
+/// rounded to `f32`: in `f32` the normal of a sliver cancels (a triangle 2 km across and
 /// 0.5 m thick got the normal `(0, 0, 0.03)`), and a point 374 m off its edge was then found
 /// over it, at distance 0.
 #[inline]
