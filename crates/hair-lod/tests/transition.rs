@@ -66,12 +66,14 @@ fn walk_down(
 ) -> u32 {
     let mut v = h.tree_root((rng.next_u64() % h.tree_count() as u64) as u32);
     for _ in 0..depth {
-        if h.is_leaf(v) {
+        // Only into children that have children themselves, so that the walk ends on a node
+        // that can be split (not a leaf under a split parent, which the caller must reject).
+        let inner: Vec<u32> = h.children(v).filter(|&c| !h.is_leaf(c)).collect();
+        if h.is_leaf(v) || inner.is_empty() {
             break;
         }
         split(h, front, state, v).unwrap();
-        let kids = h.children(v);
-        v = kids.start + (rng.next_u64() % kids.len() as u64) as u32;
+        v = inner[(rng.next_u64() % inner.len() as u64) as usize];
     }
     v
 }
@@ -85,8 +87,8 @@ proptest! {
         let mut rng = test_heads::SplitMix64::new(seed);
         let mut front = Front::coarsest(&h);
         let mut state = LodState::new(&h);
-        let mut v = walk_down(&h, &mut front, &mut state, &mut rng, depth);
-        if h.is_leaf(v) { v = h.parent(v).unwrap_or(v); }
+        let v = walk_down(&h, &mut front, &mut state, &mut rng, depth);
+        // Only a tree of one node ends the walk on a leaf.
         prop_assume!(!h.is_leaf(v) && front.is_active(v));
         fill_random(&h, &mut state, v, &mut rng);
         if bond {
