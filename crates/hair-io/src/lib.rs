@@ -53,6 +53,9 @@ pub fn read_strands(path: &Path) -> Result<Strands, IoError> {
 }
 
 /// Writes strands to a `.tfx` or `.hair` file, chosen by extension.
+///
+/// The file is written whole or not at all: into a temporary file beside it, then renamed over
+/// it, so a write that fails (a full disk, say) leaves an existing file as it was.
 pub fn write_strands(path: &Path, strands: &Strands) -> Result<(), IoError> {
     let name = path.display().to_string();
     let bytes = match extension(path).as_str() {
@@ -65,10 +68,26 @@ pub fn write_strands(path: &Path, strands: &Strands) -> Result<(), IoError> {
             });
         }
     };
-    std::fs::write(path, bytes).map_err(|e| IoError::Io {
-        file: name,
+    let io = |e: std::io::Error| IoError::Io {
+        file: name.clone(),
         message: e.to_string(),
-    })
+    };
+    let Some(file_name) = path.file_name() else {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a file name",
+        )));
+    };
+    let mut partial = std::ffi::OsString::from(".");
+    partial.push(file_name);
+    partial.push(format!(".partial-{}", std::process::id()));
+    let partial = path.with_file_name(partial);
+    std::fs::write(&partial, bytes)
+        .and_then(|()| std::fs::rename(&partial, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&partial);
+            io(e)
+        })
 }
 
 fn extension(path: &Path) -> String {

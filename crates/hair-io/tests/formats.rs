@@ -141,3 +141,36 @@ fn malformed_files_name_the_problem() {
     std::fs::write(&empty_obj, "v 0 0 0\n").unwrap();
     assert!(obj::read(&empty_obj).is_err());
 }
+
+/// A written file is complete and leaves nothing beside it; a write that cannot be made (no
+/// such directory, or strands the format cannot hold) leaves the existing file as it was.
+#[test]
+fn writes_are_whole_or_nothing() {
+    let dir = std::env::temp_dir().join(format!("hair-io-write-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let s = Strands::from_polylines(vec![vec![[0.0; 3], [1.0, 0.0, 0.0]]; 3]).unwrap();
+    for name in ["a.hair", "a.tfx"] {
+        hair_io::write_strands(&dir.join(name), &s).unwrap();
+        assert_eq!(
+            hair_io::read_strands(&dir.join(name)).unwrap().points,
+            s.points
+        );
+    }
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["a.hair", "a.tfx"]);
+    let uneven = Strands::from_polylines(vec![
+        vec![[0.0; 3], [1.0, 0.0, 0.0]],
+        vec![[0.0; 3], [1.0; 3], [2.0; 3]],
+    ])
+    .unwrap();
+    let before = std::fs::read(dir.join("a.tfx")).unwrap();
+    assert!(hair_io::write_strands(&dir.join("a.tfx"), &uneven).is_err());
+    assert_eq!(std::fs::read(dir.join("a.tfx")).unwrap(), before);
+    assert!(hair_io::write_strands(&dir.join("missing").join("b.hair"), &s).is_err());
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+    let _ = std::fs::remove_dir_all(&dir);
+}
