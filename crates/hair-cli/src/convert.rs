@@ -59,22 +59,18 @@ mod tests {
         let input = dir.join("in.hair");
         hair::io::write_strands(&input, &strands).unwrap();
         let original = std::fs::read(&input).unwrap();
-        let args = |output: &str, force: bool| Args {
+        let to = |output: PathBuf, force: bool| Args {
             input: input.clone(),
-            output: dir.join(output),
+            output,
             force,
         };
+        let args = |output: &str, force: bool| to(dir.join(output), force);
         for force in [false, true] {
-            let err = run(args("in.hair", force)).unwrap_err().to_string();
-            assert!(err.contains("the output is the input"), "{err}");
-            // The same file by another path.
-            let err = run(Args {
-                output: dir.join(".").join("in.hair"),
-                ..args("", force)
-            })
-            .unwrap_err()
-            .to_string();
-            assert!(err.contains("the output is the input"), "{err}");
+            // The input by its own path, and by another.
+            for output in [dir.join("in.hair"), dir.join(".").join("in.hair")] {
+                let err = run(to(output, force)).unwrap_err().to_string();
+                assert!(err.contains("the output is the input"), "{err}");
+            }
         }
         assert_eq!(std::fs::read(&input).unwrap(), original);
         run(args("out.tfx", false)).unwrap();

@@ -149,28 +149,29 @@ pub(crate) fn point_triangle_lanes(p: &Point, t: &TriLanes) -> ([[Real; 4]; 3], 
     // The plane tests and the projection in `f64`, as `over_triangle` does them.
     let pd: V4d = [p.x, p.y, p.z].map(|x| f64x4::splat(f64::from(x)));
     let [ad, bd, cd]: [V4d; 3] = t.v.map(|v| v.map(|l| f64x4::new(l.map(f64::from))));
-    let n = cross4(&sub4(&bd, &ad), &sub4(&cd, &ad));
+    let abd = sub4(&bd, &ad);
+    let n = cross4(&abd, &sub4(&cd, &ad));
     let nn = dot4(&n, &n);
     let apd = sub4(&pd, &ad);
-    let e0 = dot4(&cross4(&sub4(&bd, &ad), &apd), &n);
+    let e0 = dot4(&cross4(&abd, &apd), &n);
     let e1 = dot4(&cross4(&sub4(&cd, &bd), &sub4(&pd, &bd)), &n);
     let e2 = dot4(&cross4(&sub4(&ad, &cd), &sub4(&pd, &cd)), &n);
     let s = dot4(&n, &apd) / nn;
     let q: V4 = [0, 1, 2].map(|k| f32x4::new((pd[k] - n[k] * s).to_array().map(|x| x as Real)));
-    let over_d = nn.simd_gt(f64x4::ZERO)
+    let inside = nn.simd_gt(f64x4::ZERO)
         & e0.simd_ge(f64x4::ZERO)
         & e1.simd_ge(f64x4::ZERO)
         & e2.simd_ge(f64x4::ZERO);
-    // The f64 lanes' mask as an f32 one.
-    let over_d = f32x4::new(
-        over_d
+    // The f64 lanes' mask as an f32 one (all bits set where inside).
+    let inside = f32x4::new(
+        inside
             .to_array()
-            .map(|m| if m.to_bits() != 0 { 1.0 } else { 0.0 }),
+            .map(|m| f32::from_bits(m.to_bits() as u32)),
     );
     let dq = sub4(&q, &pv);
     let q_sq = dot4(&dq, &dq);
     let finite = q[0].is_finite() & q[1].is_finite() & q[2].is_finite();
-    let over = over_d.simd_eq(f32x4::ONE) & finite;
+    let over = inside & finite;
     // The edges as `Closest::min` chains them: a later edge only when strictly nearer.
     let (q0, d0) = point_segment4(&pv, &a, &b);
     let (q1, d1) = point_segment4(&pv, &b, &c);
