@@ -31,7 +31,7 @@ fi
 
 layout="$out/view-layout.txt"
 "$hair" view salon --frames 240 --print-layout --screenshot "$out/view.png" \
-    --metrics "$out/view.json" --record "$out/session.ron" > "$layout" &
+    --metrics "$out/view.json" --record "$out/session.ron" --force > "$layout" &
 app=$!
 for _ in $(seq 600); do
     grep -q '^layout view ' "$layout" 2>/dev/null && break

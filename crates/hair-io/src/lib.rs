@@ -68,15 +68,21 @@ pub fn write_strands(path: &Path, strands: &Strands) -> Result<(), IoError> {
             });
         }
     };
-    let io = |e: std::io::Error| IoError::Io {
-        file: name.clone(),
+    write_whole(path, &bytes).map_err(|e| IoError::Io {
+        file: name,
         message: e.to_string(),
-    };
+    })
+}
+
+/// Writes `bytes` to `path` whole or not at all: into a temporary file beside it (hidden, named
+/// after it and this process), then renamed over it. A write that fails (a full disk, say)
+/// leaves an existing file as it was and removes the temporary one.
+pub fn write_whole(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let Some(file_name) = path.file_name() else {
-        return Err(io(std::io::Error::new(
+        return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
             "not a file name",
-        )));
+        ));
     };
     let mut partial = std::ffi::OsString::from(".");
     partial.push(file_name);
@@ -84,9 +90,8 @@ pub fn write_strands(path: &Path, strands: &Strands) -> Result<(), IoError> {
     let partial = path.with_file_name(partial);
     std::fs::write(&partial, bytes)
         .and_then(|()| std::fs::rename(&partial, path))
-        .map_err(|e| {
+        .inspect_err(|_| {
             let _ = std::fs::remove_file(&partial);
-            io(e)
         })
 }
 

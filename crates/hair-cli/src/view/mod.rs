@@ -16,7 +16,7 @@ mod session;
 
 use anyhow::{Context, Result, bail};
 use hair::{LodPolicy, Scene};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Arguments of `hair view`.
@@ -35,9 +35,13 @@ pub struct Args {
     #[arg(long)]
     pub metrics: Option<PathBuf>,
     /// On exit, write the session as a scene file whose tool script is the recorded events:
-    /// `hair run FILE` replays it.
+    /// `hair run FILE` replays it. An existing file is kept unless `--force` is given, and the
+    /// scene file the session loaded is never written over.
     #[arg(long)]
     pub record: Option<PathBuf>,
+    /// Let `--record` replace an existing file (never the loaded scene's).
+    #[arg(long)]
+    pub force: bool,
     /// LOD policy: fine, adaptive, coarse-strands, clusters, strips (default: the scene's own).
     #[arg(long)]
     pub lod: Option<String>,
@@ -88,6 +92,26 @@ fn missing_display() -> Option<String> {
     })
 }
 
+/// Refuses a `--record` file that would lose what the user made, before the window opens (not
+/// at its close, after the styling): the scene file the session loaded (the recording drops
+/// the scene's own tool script, so it would be gone), or any existing file unless `force`.
+fn check_record_target(scene: &str, record: &Path, force: bool) -> Result<()> {
+    let same = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b);
+    if same(Path::new(scene), record) {
+        bail!(
+            "--record {}: that is the scene being loaded; record the session to another file",
+            record.display()
+        );
+    }
+    if !force && record.exists() {
+        bail!(
+            "--record {}: exists; pass --force to replace it",
+            record.display()
+        );
+    }
+    Ok(())
+}
+
 /// Runs the command.
 pub fn run(args: Args) -> Result<()> {
     let loaded = Scene::load(&args.scene)?;
@@ -105,6 +129,9 @@ pub fn run(args: Args) -> Result<()> {
     let [width, height] = [args.size[0], args.size[1]];
     if !(200..=8192).contains(&width) || !(150..=8192).contains(&height) {
         bail!("--size {width} {height}: the window must be 200x150 to 8192x8192 pixels");
+    }
+    if let Some(record) = &args.record {
+        check_record_target(&args.scene, record, args.force)?;
     }
     if let Some(why) = missing_display() {
         bail!(why);
@@ -139,4 +166,37 @@ pub fn run(args: Args) -> Result<()> {
         bail!("hair view: writing the outputs failed (see above)");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_recording_never_replaces_the_scene_and_replaces_others_only_when_forced() {
+        let dir = std::env::temp_dir().join(format!("hair-view-record-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = dir.join("mine.ron");
+        std::fs::write(&scene, "Scene()").unwrap();
+        let scene_name = scene.to_str().unwrap();
+        // The loaded scene, by its own path or another spelling of it: never, even forced.
+        let other_spelling = dir.join(".").join("mine.ron");
+        for target in [&scene, &other_spelling] {
+            for force in [false, true] {
+                let err = check_record_target(scene_name, target, force).unwrap_err();
+                assert!(err.to_string().contains("scene being loaded"), "{err}");
+            }
+        }
+        // Another existing file: only with --force.
+        let old = dir.join("old.ron");
+        std::fs::write(&old, "kept").unwrap();
+        let err = check_record_target(scene_name, &old, false).unwrap_err();
+        assert!(err.to_string().contains("--force"), "{err}");
+        check_record_target(scene_name, &old, true).unwrap();
+        // A new file, and a built-in scene's name (no file of that name here).
+        check_record_target(scene_name, &dir.join("new.ron"), false).unwrap();
+        check_record_target("salon", &dir.join("new.ron"), false).unwrap();
+        assert_eq!(std::fs::read_to_string(&old).unwrap(), "kept");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

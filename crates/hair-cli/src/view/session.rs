@@ -236,7 +236,8 @@ impl Session {
             path.display(),
             self.recorded_scene().to_ron()
         );
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+        hair::io::write_whole(path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))
     }
 
     /// Undoes the last stroke (its press, moves and release): the session restarts without
