@@ -384,6 +384,10 @@ pub struct CollisionSpec {
     pub parallel_angle: f32,
     /// How a node combines the pushes of the hair-hair pairs it is in.
     pub hair_hair_push: PushCombine,
+    /// Steps from one hair-hair pair search to the next (at least 1): in between, the pairs the
+    /// last search found are tested again at the new positions, and pairs that have come
+    /// together since are missed until the next search. 1 searches every step.
+    pub pair_search_interval: u32,
     /// The penetration tolerated after the hard constraint (m).
     pub tolerance: f32,
     /// Steps of the depenetration ramp: in them each pass of the hard constraint moves a node
@@ -400,6 +404,7 @@ impl Default for CollisionSpec {
             hair_hair: true,
             parallel_angle: 0.3,
             hair_hair_push: PushCombine::Mean,
+            pair_search_interval: 1,
             tolerance: 1e-3,
             depenetration_steps: 10,
         }
@@ -775,6 +780,12 @@ impl Scene {
             return Err(bad("collision.friction", "must be in [0, 1]"));
         }
         non_negative("collision.parallel_angle", c.parallel_angle)?;
+        if c.pair_search_interval == 0 {
+            return Err(bad(
+                "collision.pair_search_interval",
+                "must be at least 1 (1 searches every step)",
+            ));
+        }
         positive("collision.tolerance", c.tolerance)?;
         if self.camera.keys.is_empty() {
             return Err(bad("camera.keys", "needs at least one keyframe"));

@@ -379,6 +379,50 @@ fn hair_hair_push_is_used_and_deterministic() {
     assert!(Scene::from_ron("Scene(collision: (hair_hair_push: Max))", "bad.ron").is_err());
 }
 
+/// `pair_search_interval` parses and is checked; at 1 (the default) nothing changes; above 1
+/// the hair moves otherwise, deterministically across thread counts, within the penetration
+/// tolerance, and the steps between searches test the pairs the last search found (as many
+/// as it found, no more in contact than that).
+#[test]
+fn pair_search_interval_reuses_the_pairs_deterministically() {
+    let run = |interval: u32, threads: usize| {
+        let mut scene = Scene::load("wind").unwrap();
+        scene.scene.collision.pair_search_interval = interval;
+        let tolerance = f64::from(scene.scene.collision.tolerance);
+        let ramp = u64::from(scene.scene.collision.depenetration_steps);
+        on_threads(threads, || {
+            let mut sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
+            let mut tested = Vec::new();
+            for _ in 0..16 {
+                let s = sim.step().unwrap();
+                assert!(s.hair_contacts <= s.pairs_tested, "{s:?}");
+                if s.step >= ramp {
+                    assert!(s.max_penetration_m <= tolerance, "{s:?}");
+                }
+                tested.push(s.pairs_tested);
+            }
+            (sim.state_hash(), tested)
+        })
+    };
+    let (every, _) = run(1, 2);
+    let default = Scene::load("wind").unwrap();
+    assert_eq!(default.scene.collision.pair_search_interval, 1);
+    let (third, tested) = run(3, 2);
+    assert_ne!(every, third, "the interval changed nothing");
+    assert_eq!(third, run(3, 1).0, "hash differs between 1 and 2 threads");
+    // Searches at steps 0, 3, 6, ...: the two steps after each test the same pairs.
+    for k in (0..tested.len()).step_by(3) {
+        for j in k + 1..(k + 3).min(tested.len()) {
+            assert_eq!(tested[j], tested[k], "step {j} {tested:?}");
+        }
+    }
+    assert!(tested.iter().any(|&t| t > 0), "no pairs at all");
+    let err = Scene::from_ron("Scene(collision: (pair_search_interval: 0))", "bad.ron")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("pair_search_interval"), "{err}");
+}
+
 /// Hair that starts inside the body comes out over the depenetration ramp, not in one step:
 /// `wardlin`'s draped hair starts with nodes about a centimetre inside the head. Each step of
 /// the ramp may leave a node no deeper than a shrinking share of how deep it started, so the

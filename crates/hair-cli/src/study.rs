@@ -8,7 +8,10 @@
 //! distances scaled down ([`DISTANCE_SCALES`]; `adaptive+distance0.5` asks for the finest level
 //! only at half the distance, and for the coarsest from half the distance): a policy's cost
 //! falls as its error rises, and these rows trace that trade from the scene's own setting toward
-//! the clusters. Every run starts
+//! the clusters. `fine` is also run with the hair-hair pair search every few steps instead of
+//! every step ([`PAIR_SEARCH_INTERVALS`]; `fine+pairs4` searches every fourth step and tests the
+//! pairs it found again in between): what missing the pairs that form between searches costs.
+//! Every run starts
 //! from the same scene and seed; after every frame the rendered strands' control vertices are
 //! compared with the reference's at the same frame, and the RMS and the maximum over all frames
 //! and vertices are reported (mm); so is the RMS over the vertices the camera sees in the
@@ -48,6 +51,10 @@ pub struct Args {
 /// extra `adaptive+distanceF` rows.
 pub const DISTANCE_SCALES: [f32; 2] = [0.5, 0.25];
 
+/// `collision.pair_search_interval` of the extra `fine+pairsN` rows (run when the scene searches
+/// every step and has hair-hair collision).
+pub const PAIR_SEARCH_INTERVALS: [u32; 2] = [2, 4];
+
 /// Relative change of gravity in the `fine+perturbed` run.
 pub const GRAVITY_PERTURBATION: f32 = 1e-6;
 
@@ -62,6 +69,8 @@ pub struct PolicyResult {
     pub collision: String,
     /// Whether localization froze quiet cells.
     pub localization: bool,
+    /// Steps from one hair-hair pair search to the next.
+    pub pair_search_interval: u32,
     /// Mean milliseconds per frame.
     pub ms_per_frame: f64,
     /// Mean milliseconds per frame integrating.
@@ -134,6 +143,8 @@ struct Config {
     perturbation: f32,
     /// Factor on the scene's adaptive LOD distances (1: the scene's own).
     distance_scale: f32,
+    /// Steps between hair-hair pair searches (0: the scene's own).
+    pair_interval: u32,
 }
 
 struct Run {
@@ -157,8 +168,12 @@ fn run_one(
         localization,
         perturbation,
         distance_scale,
+        pair_interval,
     } = config;
     let mut loaded = scene.clone();
+    if pair_interval > 0 {
+        loaded.scene.collision.pair_search_interval = pair_interval;
+    }
     loaded.scene.collision.method = method;
     loaded.scene.localization = localization;
     let adaptive = &mut loaded.scene.adaptive;
@@ -222,6 +237,9 @@ fn run_one(
     if distance_scale != 1.0 {
         name.push_str(&format!("+distance{distance_scale}"));
     }
+    if pair_interval > 0 {
+        name.push_str(&format!("+pairs{pair_interval}"));
+    }
     if localization {
         name.push_str("+localized");
     }
@@ -234,6 +252,7 @@ fn run_one(
             policy: policy.name().into(),
             collision: method_name(method).into(),
             localization,
+            pair_search_interval: loaded.scene.collision.pair_search_interval,
             ms_per_frame: total / f,
             ms_dynamics: dynamics / f,
             ms_collision: collision / f,
@@ -279,6 +298,7 @@ pub fn run(args: Args) -> Result<()> {
         localization,
         perturbation: 0.0,
         distance_scale: 1.0,
+        pair_interval: 0,
     };
     let mut configs: Vec<Config> = vec![Config {
         perturbation: GRAVITY_PERTURBATION,
@@ -298,6 +318,13 @@ pub fn run(args: Args) -> Result<()> {
         distance_scale,
         ..config(LodPolicy::Adaptive, own, false)
     }));
+    let c = &loaded.scene.collision;
+    if c.hair_hair && c.pair_search_interval == 1 {
+        configs.extend(PAIR_SEARCH_INTERVALS.map(|pair_interval| Config {
+            pair_interval,
+            ..config(LodPolicy::Fine, own, false)
+        }));
+    }
     configs.push(config(LodPolicy::Fine, own, true));
     configs.push(config(LodPolicy::Adaptive, own, true));
     let mut methods = vec![CollisionMethod::Field, CollisionMethod::Bvh];
@@ -329,12 +356,17 @@ pub fn run(args: Args) -> Result<()> {
         let mut policies = vec![reference.result.clone()];
         for c in configs {
             eprintln!(
-                "study {}: {} ({}{}{}{}) ...",
+                "study {}: {} ({}{}{}{}{}) ...",
                 loaded.scene.name,
                 c.policy.name(),
                 method_name(c.method),
                 if c.distance_scale != 1.0 {
                     format!(", distances x{}", c.distance_scale)
+                } else {
+                    String::new()
+                },
+                if c.pair_interval > 0 {
+                    format!(", pair search every {} steps", c.pair_interval)
                 } else {
                     String::new()
                 },
@@ -366,15 +398,16 @@ pub fn run(args: Args) -> Result<()> {
     let json = serde_json::to_string_pretty(&study)?;
     write(&args.out.join("study.json"), &json)?;
     let mut csv = String::from(
-        "name,policy,collision,localization,ms_per_frame,ms_dynamics,ms_collision,mean_skeletons,mean_dormant,rms_error_mm,max_error_mm,visible_rms_error_mm,max_penetration_mm,cost_ratio\n",
+        "name,policy,collision,localization,pair_search_interval,ms_per_frame,ms_dynamics,ms_collision,mean_skeletons,mean_dormant,rms_error_mm,max_error_mm,visible_rms_error_mm,max_penetration_mm,cost_ratio\n",
     );
     for p in &study.policies {
         csv.push_str(&format!(
-            "{},{},{},{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.4},{:.4},{:.4},{:.4},{:.4}\n",
+            "{},{},{},{},{},{:.3},{:.3},{:.3},{:.1},{:.1},{:.4},{:.4},{:.4},{:.4},{:.4}\n",
             p.name,
             p.policy,
             p.collision,
             p.localization,
+            p.pair_search_interval,
             p.ms_per_frame,
             p.ms_dynamics,
             p.ms_collision,
@@ -539,6 +572,8 @@ mod tests {
             "strips",
             "fine+bvh",
             "fine+maps",
+            "fine+pairs2",
+            "fine+pairs4",
         ] {
             assert_eq!(
                 names.iter().filter(|n| **n == expected).count(),
