@@ -725,22 +725,7 @@ impl Simulation {
         }
 
         // 3. Grid over the front's segments (head frame, where the body is static).
-        self.sections.clear();
-        self.section_node.clear();
-        for &node in &self.front_nodes {
-            let r = self.state.nodes(SkeletonId(node));
-            let p = self.state.positions();
-            // salon (issue 8): per-node radius (water thins, mousse thickens).
-            let radius = self.state.radius();
-            for (k, i) in (r.start + 1..r.end).enumerate() {
-                self.sections.push(Section {
-                    skeleton: node,
-                    segment: k as u32,
-                    shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
-                });
-                self.section_node.push(i as u32);
-            }
-        }
+        self.build_sections();
         self.grid.rebuild(&self.sections)?;
         // Localization: sections frozen when every cell they cover has been quiet.
         if self.scene.localization {
@@ -961,6 +946,25 @@ impl Simulation {
         stats.state_hash = self.state_hash();
         stats.ms_total = ms(t0, Instant::now());
         Ok(stats)
+    }
+
+    /// The front's segments as grid sections, each with its end node (`section_node`).
+    fn build_sections(&mut self) {
+        self.sections.clear();
+        self.section_node.clear();
+        let (p, radius) = (self.state.positions(), self.state.radius());
+        for &node in &self.front_nodes {
+            let r = self.state.nodes(SkeletonId(node));
+            // salon (issue 8): per-node radius (water thins, mousse thickens).
+            for (k, i) in (r.start + 1..r.end).enumerate() {
+                self.sections.push(Section {
+                    skeleton: node,
+                    segment: k as u32,
+                    shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
+                });
+                self.section_node.push(i as u32);
+            }
+        }
     }
 
     /// The hair-hair pair search and narrow phase, into `self.responses` chunk by chunk of the
@@ -1730,20 +1734,7 @@ mod tests {
         for _ in 0..12 {
             // The step's sections and the search on them, as `step` runs them (the pairs then
             // meet the dynamics, so they are compared before it).
-            sim.sections.clear();
-            sim.section_node.clear();
-            for &node in &sim.front_nodes {
-                let r = sim.state.nodes(SkeletonId(node));
-                let (p, radius) = (sim.state.positions(), sim.state.radius());
-                for (k, i) in (r.start + 1..r.end).enumerate() {
-                    sim.sections.push(Section {
-                        skeleton: node,
-                        segment: k as u32,
-                        shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
-                    });
-                    sim.section_node.push(i as u32);
-                }
-            }
+            sim.build_sections();
             sim.grid.rebuild(&sim.sections).expect("grid");
             let cos = scene.scene.collision.parallel_angle.cos();
             sim.search_hair_pairs(cos, true);
