@@ -424,7 +424,9 @@ impl Simulation {
     }
 
     /// The localization grid as the last step rebuilt it: the front's hair sections (in the
-    /// head frame), their cells and the pair search's data.
+    /// head frame), their cells and the pair search's data. With `pair_search_interval` above
+    /// 1 and localization off, the steps between pair searches leave it as the last search
+    /// built it.
     pub fn grid(&self) -> &Grid {
         &self.grid
     }
@@ -726,7 +728,25 @@ impl Simulation {
 
         // 3. Grid over the front's segments (head frame, where the body is static).
         self.build_sections();
-        self.grid.rebuild(&self.sections)?;
+        // The pairs of the last search, tested again while they are young enough and the hair
+        // is the same hair: no tool has acted (a cut, a bond) and the front is the same (a new
+        // front drops them above).
+        let interval = self.scene.collision.pair_search_interval.max(1);
+        let reuse = match self.kept_pairs {
+            Some((chunks, age))
+                if self.scene.collision.hair_hair
+                    && age + 1 < interval
+                    && self.salon.script().events.is_empty() =>
+            {
+                Some((chunks, age + 1))
+            }
+            _ => None,
+        };
+        // Between searches nothing else reads the grid unless localization measures activity
+        // (the salon's tools would, but a tool script always searches).
+        if reuse.is_none() || self.scene.localization {
+            self.grid.rebuild(&self.sections)?;
+        }
         // Localization: sections frozen when every cell they cover has been quiet.
         if self.scene.localization {
             // Motion is measured by how far nodes moved over the last step, not by their
@@ -790,17 +810,6 @@ impl Simulation {
         // near-parallel ones share their velocity instead.
         if self.scene.collision.hair_hair {
             let cos_parallel = self.scene.collision.parallel_angle.cos();
-            // The pairs of the last search, tested again while they are young enough and the
-            // hair is the same hair: no tool has acted (a cut, a bond) and the front is the same.
-            let interval = self.scene.collision.pair_search_interval.max(1);
-            let reuse = match self.kept_pairs {
-                Some((chunks, age))
-                    if age + 1 < interval && self.salon.script().events.is_empty() =>
-                {
-                    Some((chunks, age + 1))
-                }
-                _ => None,
-            };
             let chunks = if let Some((chunks, age)) = reuse {
                 self.kept_pairs = Some((chunks, age));
                 let state = &self.state;

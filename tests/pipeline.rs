@@ -385,9 +385,10 @@ fn hair_hair_push_is_used_and_deterministic() {
 /// as it found, no more in contact than that).
 #[test]
 fn pair_search_interval_reuses_the_pairs_deterministically() {
-    let run = |interval: u32, threads: usize| {
+    let run_with = |interval: u32, localization: bool, threads: usize| {
         let mut scene = Scene::load("wind").unwrap();
         scene.scene.collision.pair_search_interval = interval;
+        scene.scene.localization = localization;
         let tolerance = f64::from(scene.scene.collision.tolerance);
         let ramp = u64::from(scene.scene.collision.depenetration_steps);
         on_threads(threads, || {
@@ -404,6 +405,7 @@ fn pair_search_interval_reuses_the_pairs_deterministically() {
             (sim.state_hash(), tested)
         })
     };
+    let run = |interval: u32, threads: usize| run_with(interval, false, threads);
     let (every, _) = run(1, 2);
     let default = Scene::load("wind").unwrap();
     assert_eq!(default.scene.collision.pair_search_interval, 1);
@@ -417,6 +419,9 @@ fn pair_search_interval_reuses_the_pairs_deterministically() {
         }
     }
     assert!(tested.iter().any(|&t| t > 0), "no pairs at all");
+    // With localization the grid is rebuilt between searches too (activity reads it).
+    let (localized, _) = run_with(3, true, 2);
+    assert_eq!(localized, run_with(3, true, 1).0, "localized: hash differs");
     let err = Scene::from_ron("Scene(collision: (pair_search_interval: 0))", "bad.ron")
         .unwrap_err()
         .to_string();
