@@ -59,6 +59,9 @@ pub struct Summary {
     pub frames: u32,
     /// Steps per frame.
     pub substeps: u32,
+    /// Steps from one hair-hair pair search to the next (the scene's
+    /// `collision.pair_search_interval`; 1 searches every step).
+    pub pair_search_interval: u32,
     /// Mean milliseconds per frame.
     pub ms_per_frame: f64,
     /// Mean milliseconds per frame in each stage.
@@ -204,6 +207,7 @@ pub fn simulate(
             threads,
             frames,
             substeps,
+            pair_search_interval: loaded.scene.collision.pair_search_interval,
             ms_per_frame: total_ms / f,
             ms_per_stage: stages,
             skeletons: sim.front_nodes().len(),
@@ -310,5 +314,37 @@ pub fn render_scene(sim: &Simulation) -> hair_render::RenderScene {
         body,
         strands,
         ..RenderScene::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The summary names the pair search interval the run used: the scene's own.
+    #[test]
+    fn the_summary_gives_the_pair_search_interval() {
+        let dir = std::env::temp_dir().join(format!("hair-run-interval-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for interval in [1, 3] {
+            let mut scene = Scene::load("bristles").unwrap().scene;
+            scene.collision.pair_search_interval = interval;
+            let path = dir.join(format!("bristles-{interval}.ron"));
+            std::fs::write(&path, scene.to_ron()).unwrap();
+            let args = Args {
+                scene: path.display().to_string(),
+                frames: Some(4),
+                out: dir.clone(),
+                lod: None,
+                threads: Some(1),
+                seed: None,
+                render: false,
+                size: 64,
+            };
+            let (summary, metrics, _) = simulate(&args, false, &mut |_, _| Ok(())).unwrap();
+            assert_eq!(summary.pair_search_interval, interval);
+            assert_eq!(metrics.len(), 4);
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
