@@ -1612,53 +1612,26 @@ impl ResponseChunk {
                 }
                 radii[l] = radius[i].max(radius[i - 1]) + radius[j].max(radius[j - 1]);
             }
-            // hair-ssv's segment-segment parameters (the lines' solution, by cross products
-            // near parallel, then the two clamped projections), lane by lane.
-            let dot = |x: &[[Real; L]; 3], y: &[[Real; L]; 3], l: usize| {
-                x[0][l] * y[0][l] + x[1][l] * y[1][l] + x[2][l] * y[2][l]
-            };
             let mut r = [[0.0; L]; 3];
             for k in 0..3 {
                 for l in 0..L {
                     r[k][l] = a0[k][l] - b0[k][l];
                 }
             }
+            let (s, t) = hair_ssv::segment_segment_params_lanes(&u, &v, &r);
             let (mut d, mut dist, mut parallel) = ([[0.0; L]; 3], [0.0; L], [false; L]);
             for l in 0..L {
-                let (a, e, b) = (dot(&u, &u, l), dot(&v, &v, l), dot(&u, &v, l));
-                let (c, f) = (dot(&u, &r, l), dot(&v, &r, l));
-                let denom = a * e - b * b;
-                let n = [
-                    u[1][l] * v[2][l] - u[2][l] * v[1][l],
-                    u[2][l] * v[0][l] - u[0][l] * v[2][l],
-                    u[0][l] * v[1][l] - u[1][l] * v[0][l],
-                ];
-                let m = [
-                    v[1][l] * r[2][l] - v[2][l] * r[1][l],
-                    v[2][l] * r[0][l] - v[0][l] * r[2][l],
-                    v[0][l] * r[1][l] - v[1][l] * r[0][l],
-                ];
-                let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-                let crossed = (n[0] * m[0] + n[1] * m[1] + n[2] * m[2]) / nn;
-                let crossed = if nn > 0.0 { crossed } else { 0.0 };
-                let classic = (b * f - c * e) / denom;
-                let s0 = if denom > 0.0625 * a * e {
-                    classic
-                } else {
-                    crossed
-                };
-                let s0 = clamp_unit(s0);
-                let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
-                let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
-                let t = clamp_unit((b * s0 + f) * inv_e);
-                let s = clamp_unit((b * t - c) * inv_a);
                 // From the first section's closest point to the second's.
                 for k in 0..3 {
-                    d[k][l] = (b0[k][l] + v[k][l] * t) - (a0[k][l] + u[k][l] * s);
+                    d[k][l] = (b0[k][l] + v[k][l] * t[l]) - (a0[k][l] + u[k][l] * s[l]);
                 }
                 dist[l] = (d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l]).sqrt();
                 // |cos| of the angle between them at least `cos_parallel`, without the roots; a
                 // point section has no direction (its cosine is taken as 0, as the search does).
+                let dot = |x: &[[Real; L]; 3], y: &[[Real; L]; 3]| {
+                    x[0][l] * y[0][l] + x[1][l] * y[1][l] + x[2][l] * y[2][l]
+                };
+                let (a, e, b) = (dot(&u, &u), dot(&v, &v), dot(&u, &v));
                 parallel[l] = (b * b >= cos2 * a * e && a > 0.0 && e > 0.0) || cos_parallel <= 0.0;
             }
             for l in 0..n {
@@ -1677,14 +1650,6 @@ impl ResponseChunk {
             }
         }
     }
-}
-
-/// `x` in `[0, 1]`, as hair-ssv's segment kernels clamp (`max` first: NaN becomes 0, where
-/// `clamp` would keep it).
-#[inline(always)]
-#[allow(clippy::manual_clamp)]
-fn clamp_unit(x: Real) -> Real {
-    x.max(0.0).min(1.0)
 }
 
 fn any_perpendicular(n: &Vector) -> Vector {

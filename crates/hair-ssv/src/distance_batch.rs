@@ -69,7 +69,28 @@ pub fn lss_lss_lanes(
     r: &[[Real; LANES]; 3],
     radii: &[Real; LANES],
 ) -> [Real; LANES] {
-    let mut res = [0.0; LANES];
+    let (s, t) = segment_segment_params_lanes(u, v, r);
+    std::array::from_fn(|i| {
+        let w = [0, 1, 2].map(|k| r[k][i] + u[k][i] * s[i] - v[k][i] * t[i]);
+        (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt() - radii[i]
+    })
+}
+
+/// The parameters `(s, t)` in `[0, 1]` of the closest points `a + s u` and `a' + t v` of eight
+/// pairs of segments in lanes (`u`, `v` and `r = a - a'` as for [`lss_lss_lanes`]): the
+/// expressions of [`query::segment_segment`] in the same order, so that for finite segments
+/// they are the same values, bit for bit. Branch-free, so the loop compiles to packed
+/// instructions.
+///
+/// [`query::segment_segment`]: crate::query::segment_segment
+#[inline(always)]
+pub fn segment_segment_params_lanes(
+    u: &[[Real; LANES]; 3],
+    v: &[[Real; LANES]; 3],
+    r: &[[Real; LANES]; 3],
+) -> ([Real; LANES], [Real; LANES]) {
+    let mut s_out = [0.0; LANES];
+    let mut t_out = [0.0; LANES];
     for i in 0..LANES {
         let (ux, uy, uz) = (u[0][i], u[1][i], u[2][i]);
         let (vx, vy, vz) = (v[0][i], v[1][i], v[2][i]);
@@ -97,13 +118,8 @@ pub fn lss_lss_lanes(
         let inv_e = if e > 0.0 { 1.0 / e } else { 0.0 };
         let inv_a = if a > 0.0 { 1.0 / a } else { 0.0 };
         let t = clamp01((b * s0 + f) * inv_e);
-        let s = clamp01((b * t - c) * inv_a);
-        let (wx, wy, wz) = (
-            rx + ux * s - vx * t,
-            ry + uy * s - vy * t,
-            rz + uz * s - vz * t,
-        );
-        res[i] = (wx * wx + wy * wy + wz * wz).sqrt() - radii[i];
+        s_out[i] = clamp01((b * t - c) * inv_a);
+        t_out[i] = t;
     }
-    res
+    (s_out, t_out)
 }

@@ -56,7 +56,7 @@ pub use distance::{
     distance_lss_lss, distance_lss_rss, distance_pss_lss, distance_pss_pss, distance_pss_rss,
     distance_rss_rss,
 };
-pub use distance_batch::{distance_lss_lss_batch, lss_lss_lanes};
+pub use distance_batch::{distance_lss_lss_batch, lss_lss_lanes, segment_segment_params_lanes};
 pub use error::SsvError;
 pub use fit::{fit_lss, fit_rss, fit_rss_triangles};
 pub use ray::RayHit;
