@@ -483,6 +483,159 @@ fn small_covers_avx512(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
     out
 }
 
+/// [`small_covers_avx512`] with AVX2: the same expressions in four `f64` lanes, run on each half
+/// of the eight sections, so the same ranges and masks. Without mask registers the lane tests
+/// are compare results (all ones where true), blended and turned into bits with `movemask`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(unsafe_code)]
+fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
+    use std::arch::x86_64::{
+        __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_loadu_ps,
+        _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256, _mm256_blendv_pd,
+        _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_cmp_pd, _mm256_cmpeq_epi64,
+        _mm256_cmpgt_epi64, _mm256_cvtps_pd, _mm256_div_pd, _mm256_max_pd, _mm256_min_pd,
+        _mm256_movemask_pd, _mm256_mul_pd, _mm256_or_si256, _mm256_set1_epi64x, _mm256_set1_pd,
+        _mm256_setzero_pd, _mm256_setzero_si256, _mm256_storeu_si256, _mm256_sub_epi64,
+        _mm256_sub_pd,
+    };
+    let mut out: Covers8 = [None; 8];
+    // The sections' ends and radii by lane; a lane that is not an LSS keeps zeros and is
+    // dropped below.
+    let mut f = [[0.0f32; 8]; 7];
+    let mut line = 0u32;
+    for (l, s) in secs.iter().take(8).enumerate() {
+        if let Ssv::Line(ln) = &s.shape {
+            for k in 0..3 {
+                f[k][l] = ln.a[k];
+                f[3 + k][l] = ln.b[k];
+            }
+            f[6][l] = ln.radius;
+            line |= 1 << l;
+        }
+    }
+    let bits = |m: __m256d| _mm256_movemask_pd(m) as u32;
+    let lanes = |v: __m256i| -> [i64; 4] {
+        let mut t = [0i64; 4];
+        // SAFETY: four 64-bit integers.
+        unsafe { _mm256_storeu_si256(t.as_mut_ptr().cast(), v) };
+        t
+    };
+    for half in 0..2 {
+        let wide = |c: &[f32; 8]| -> __m256d {
+            // SAFETY: four floats of the eight, from `4 * half`.
+            _mm256_cvtps_pd(unsafe { _mm_loadu_ps(c.as_ptr().add(4 * half)) })
+        };
+        let inv_v = _mm256_set1_pd(inv);
+        let va: [__m256d; 3] = std::array::from_fn(|k| _mm256_mul_pd(wide(&f[k]), inv_v));
+        let vb: [__m256d; 3] = std::array::from_fn(|k| _mm256_mul_pd(wide(&f[3 + k]), inv_v));
+        let radius = wide(&f[6]);
+        let r = _mm256_add_pd(
+            _mm256_mul_pd(_mm256_add_pd(radius, _mm256_set1_pd(grow)), inv_v),
+            _mm256_set1_pd(EPS_CELLS),
+        );
+        let zero = _mm256_setzero_pd();
+        let one = _mm256_set1_pd(1.0);
+        let half_lattice = _mm256_set1_pd(LATTICE_HALF as f64);
+        let ge = |a, b| _mm256_cmp_pd::<_CMP_GE_OQ>(a, b);
+        let gt = |a, b| _mm256_cmp_pd::<_CMP_GT_OQ>(a, b);
+        let le = |a, b| _mm256_cmp_pd::<_CMP_LE_OQ>(a, b);
+        let lt = |a, b| _mm256_cmp_pd::<_CMP_LT_OQ>(a, b);
+        // `blend(m, no, yes)`: `yes` where the lane test `m` holds.
+        let blend = |m: __m256d, no: __m256d, yes: __m256d| _mm256_blendv_pd(no, yes, m);
+        // Not negative (NaN fails too, through `r` below).
+        let mut ok = (line >> (4 * half)) & 0xf & bits(ge(radius, zero));
+        // `floor_small`: the floor as an integer and as a float (exact: small integers).
+        const MAGIC: f64 = 6_755_399_441_055_744.0;
+        let magic = _mm256_set1_pd(MAGIC);
+        let magic_bits = _mm256_set1_epi64x(MAGIC.to_bits() as i64);
+        let one_i = _mm256_set1_epi64x(1);
+        let floor = |v: __m256d| -> (__m256i, __m256d) {
+            let sum = _mm256_add_pd(v, magic);
+            let back = _mm256_sub_pd(sum, magic);
+            let over = gt(back, v);
+            // `over` is all ones (-1) where set: adding it subtracts one.
+            let k = _mm256_sub_epi64(_mm256_castpd_si256(sum), magic_bits);
+            let k = _mm256_add_epi64(k, _mm256_castpd_si256(over));
+            (k, blend(over, back, _mm256_sub_pd(back, one)))
+        };
+        let mut cl = [_mm256_setzero_si256(); 3];
+        let mut ch = [_mm256_setzero_si256(); 3];
+        let mut axes = [[zero; 4]; 3];
+        for k in 0..3 {
+            let (a, b) = (va[k], vb[k]);
+            // `if a < b { (a, b) } else { (b, a) }`.
+            let (mn, mx) = (_mm256_min_pd(a, b), _mm256_max_pd(b, a));
+            let (lo, hi) = (_mm256_sub_pd(mn, r), _mm256_add_pd(mx, r));
+            ok &= bits(ge(lo, _mm256_sub_pd(zero, half_lattice))) & bits(lt(hi, half_lattice));
+            let (lo_i, lo_f) = floor(lo);
+            let (hi_i, _) = floor(hi);
+            cl[k] = lo_i;
+            ch[k] = hi_i;
+            let n = _mm256_add_epi64(_mm256_sub_epi64(hi_i, lo_i), one_i);
+            // At most two cells along every axis.
+            let wide_axis = _mm256_cmpgt_epi64(n, _mm256_set1_epi64x(2));
+            ok &= !bits(_mm256_castsi256_pd(wide_axis)) & 0xf;
+            let single = _mm256_castsi256_pd(_mm256_cmpeq_epi64(n, one_i));
+            // `cover::small_mask`'s bounds of the axis, every case.
+            let d = _mm256_sub_pd(b, a);
+            let inv_d = _mm256_div_pd(one, d);
+            let base = _mm256_sub_pd(lo_f, a);
+            let up = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(base, one), r), inv_d);
+            let down = _mm256_mul_pd(_mm256_sub_pd(_mm256_add_pd(base, one), r), inv_d);
+            let rising = gt(d, zero);
+            let sloped = [
+                blend(rising, _mm256_max_pd(up, zero), zero),
+                blend(rising, one, _mm256_min_pd(up, one)),
+                blend(rising, zero, _mm256_max_pd(down, zero)),
+                blend(rising, _mm256_min_pd(down, one), one),
+            ];
+            let upper = |f: __m256d| {
+                let inside = _mm256_and_pd(
+                    ge(a, _mm256_sub_pd(f, r)),
+                    le(a, _mm256_add_pd(_mm256_add_pd(f, one), r)),
+                );
+                blend(inside, _mm256_set1_pd(-1.0), one)
+            };
+            let flat = [zero, upper(lo_f), zero, upper(_mm256_add_pd(lo_f, one))];
+            // |d| as d with the sign bit cleared.
+            let abs_d = _mm256_and_pd(d, _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX)));
+            let slanted = gt(abs_d, _mm256_set1_pd(cover::TINY));
+            let one_cell = [zero, one, _mm256_set1_pd(2.0), _mm256_set1_pd(-1.0)];
+            axes[k] = std::array::from_fn(|j| {
+                let along = blend(slanted, flat[j], sloped[j]);
+                blend(single, along, one_cell[j])
+            });
+        }
+        let [x, y, z] = axes;
+        let mut mask = _mm256_setzero_si256();
+        for i in 0..2 {
+            for j in 0..2 {
+                let y0 = _mm256_max_pd(y[2 * j], x[2 * i]);
+                let y1 = _mm256_min_pd(y[2 * j + 1], x[2 * i + 1]);
+                for k in 0..2 {
+                    let keep = le(_mm256_max_pd(z[2 * k], y0), _mm256_min_pd(z[2 * k + 1], y1));
+                    let bit = _mm256_set1_epi64x(1 << (4 * i + 2 * j + k));
+                    mask = _mm256_or_si256(mask, _mm256_and_si256(_mm256_castpd_si256(keep), bit));
+                }
+            }
+        }
+        let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
+        for l in 0..4 {
+            let o = 4 * half + l;
+            if o < secs.len() && ok & (1 << l) != 0 {
+                out[o] = Some((
+                    [cl[0][l], cl[1][l], cl[2][l]],
+                    [ch[0][l], ch[1][l], ch[2][l]],
+                    SMALL | mask[l] as u64,
+                ));
+            }
+        }
+    }
+    out
+}
+
 /// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
 /// ([`crate::pairs::earlier_bits`]): `25 (dx + 2) + 5 (dy + 2) + (dz + 2)` inside the 5 x 5 x 5
 /// window (`dx >= -2`, `|dy|, |dz| <= 2`), else `OUTSIDE`. Indexed by `49 dx + 7 dy + dz + 171`
@@ -980,9 +1133,9 @@ impl Grid {
         self.n_chunks = n_chunks;
         let limit = u64::from(self.config.max_cells_per_item);
         let clip = CellBox::ALL;
-        // Eight short covers at a time where the processor has AVX-512.
+        // Eight short covers at a time where the processor has AVX-512 or AVX2.
         #[cfg(target_arch = "x86_64")]
-        let wide = crate::pairs::Kernel::best() == crate::pairs::Kernel::Avx512;
+        let wide = crate::pairs::Kernel::best();
         if self.shapes.len() < sections.len() {
             self.shapes.resize(sections.len(), sections[0].shape);
         }
@@ -1017,12 +1170,18 @@ impl Grid {
                         break;
                     }
                     #[cfg(target_arch = "x86_64")]
-                    if wide && l % 8 == 0 {
-                        // SAFETY: `wide` is set only when `Kernel::best` found AVX-512F on this
-                        // processor.
+                    if l % 8 == 0 {
+                        // SAFETY: each kernel runs only when `Kernel::best` found its
+                        // instructions on this processor.
                         #[allow(unsafe_code)]
-                        {
-                            group = unsafe { small_covers_avx512(&secs[l..], inv, grow) };
+                        match wide {
+                            crate::pairs::Kernel::Avx512 => {
+                                group = unsafe { small_covers_avx512(&secs[l..], inv, grow) };
+                            }
+                            crate::pairs::Kernel::Avx2 => {
+                                group = unsafe { small_covers_avx2(&secs[l..], inv, grow) };
+                            }
+                            crate::pairs::Kernel::Base => {}
                         }
                     }
                     // Nearly every hair section is a valid LSS with a small cell range: its cover
@@ -1542,8 +1701,15 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn eight_short_covers_at_once_are_the_scalar_ones() {
-        if !std::arch::is_x86_feature_detected!("avx512f") {
-            eprintln!("no AVX-512F on this processor: the eight-wide covers are not tested");
+        let (avx512, avx2) = (
+            std::arch::is_x86_feature_detected!("avx512f"),
+            std::arch::is_x86_feature_detected!("avx2"),
+        );
+        if !avx512 {
+            eprintln!("no AVX-512F on this processor: the AVX-512 covers are not tested");
+        }
+        if !avx2 {
+            eprintln!("no AVX2 on this processor: the AVX2 covers are not tested");
             return;
         }
         // Seeded segments of about one cell and of a few, with the cases of `small_mask`: along
@@ -1595,8 +1761,20 @@ mod tests {
                 })
                 .collect();
             #[allow(unsafe_code)]
-            // SAFETY: AVX-512F was found above.
-            let group = unsafe { small_covers_avx512(&secs, inv, grow) };
+            // SAFETY: AVX2 was found above.
+            let group = unsafe { small_covers_avx2(&secs, inv, grow) };
+            if avx512 {
+                #[allow(unsafe_code)]
+                // SAFETY: AVX-512F was found above.
+                let group512 = unsafe { small_covers_avx512(&secs, inv, grow) };
+                assert_eq!(group512, group);
+            }
+            // Fewer than eight sections: the lanes past them stay empty.
+            #[allow(unsafe_code)]
+            // SAFETY: AVX2 was found above.
+            let five = unsafe { small_covers_avx2(&secs[..5], inv, grow) };
+            assert_eq!(five[..5], group[..5]);
+            assert_eq!(five[5..], [None; 3]);
             for (s, got) in secs.iter().zip(group) {
                 let scalar = match &s.shape {
                     Ssv::Line(l) => short_line(l, inv, grow),
