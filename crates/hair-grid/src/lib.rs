@@ -260,6 +260,25 @@
 //! eight rounds on a busy host: fastest rebuild 23.9 ms against 25.6 ms on average, faster in 7
 //! rounds of 8.
 //!
+//! Measured on that machine and dropped (the code is not kept):
+//! - **AVX2 rows without a hit loop**, after the AVX-512 ones: box, neighbour and owner tests
+//!   lane-wise on each group of eight, the kept sections packed to the low lanes through a
+//!   256-entry table of lane permutations, and eight pairs stored at once. The same pairs in the
+//!   same order, but 452 M instructions per search against 440 M, and slower: fastest search
+//!   25.2-27.5 ms against 22.6-25.3 ms over three alternated rounds (31.3-31.7 against
+//!   26.6-27.5 ms with a branch that skips the groups keeping nothing). Without mask registers
+//!   and a compress, the lane work costs more than the hit loop it removes.
+//! - **Sweeping smaller cells.** Every cell of 2, 16, 32 or 64 sections or more as a sweep: the
+//!   bench scene's search took 35.8, 32.4-33.0, 29.4 and 24.1-24.3 ms against 22.0-23.6 ms.
+//!   Sorting alone, with full rows, took 30.7-31.1 ms: the per-cell sort is the cost.
+//! - **A sweep's row ends found eight sections at a time** instead of by binary search (the rows
+//!   then test up to seven boxes more, which miss): the same instructions within 0.1% and the
+//!   same time on `wardlin`'s sections (13.1-13.3 ms either way).
+//! - **Transparent huge pages** for the large buffers (glibc's `glibc.malloc.hugetlb=1`, which
+//!   advises them so): `grid_profile both 10` over eight alternated rounds gave the same
+//!   fastest rebuild (23.6 ms on average either way) and a slower search (29.7 against
+//!   28.1 ms).
+//!
 //! ### Where a rebuild's time goes
 //!
 //! Temporary timers around the rebuild's phases (`grid_profile build 10`, 2 threads, on a day

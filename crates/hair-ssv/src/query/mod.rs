@@ -17,7 +17,7 @@ pub(crate) mod separation;
 pub use point_rectangle::point_rectangle;
 pub use point_segment::point_segment;
 pub use point_triangle::point_triangle;
-pub(crate) use point_triangle::{TriLanes, point_triangle_lanes};
+pub(crate) use point_triangle::{TriLanes, point_triangle_lanes_in};
 pub use rectangle_rectangle::rectangle_rectangle;
 pub use rectangle_triangle::rectangle_triangle;
 pub use segment_rectangle::segment_rectangle;

@@ -141,12 +141,54 @@ fn point_segment4(p: &V4, a: &V4, b: &V4) -> (V4, f32x4) {
 
 /// [`point_triangle`] of one point and four triangles at once: per lane, the closest point on
 /// the triangle and its squared distance from `p`, with the same values as the scalar function
-/// (the same expressions in the same order, lane by lane, and the same choices).
-#[inline]
-pub(crate) fn point_triangle_lanes(p: &Point, t: &TriLanes) -> ([[Real; 4]; 3], [Real; 4]) {
+/// (the same expressions in the same order, lane by lane, and the same choices). Where `AVX`
+/// (true only in code compiled for AVX: `Bvh`'s point query on such a processor) the `f64`
+/// plane tests run in AVX registers, four lanes per instruction instead of two, with the same
+/// operations in the same order, so the same values.
+#[inline(always)]
+#[allow(unsafe_code)]
+pub(crate) fn point_triangle_lanes_in<const AVX: bool>(
+    p: &Point,
+    t: &TriLanes,
+) -> ([[Real; 4]; 3], [Real; 4]) {
     let pv: V4 = [f32x4::splat(p.x), f32x4::splat(p.y), f32x4::splat(p.z)];
     let [a, b, c] = t.v.map(|v| v.map(f32x4::new));
-    // The plane tests and the projection in `f64`, as `over_triangle` does them.
+    #[cfg(target_arch = "x86_64")]
+    let (q, inside) = if AVX {
+        // SAFETY: `AVX` is true only in code compiled for AVX, which runs only where the
+        // processor has it.
+        unsafe { plane_lanes_avx(p, t) }
+    } else {
+        plane_lanes(p, t)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let (q, inside) = plane_lanes(p, t);
+    let dq = sub4(&q, &pv);
+    let q_sq = dot4(&dq, &dq);
+    let finite = q[0].is_finite() & q[1].is_finite() & q[2].is_finite();
+    let over = inside & finite;
+    // The edges as `Closest::min` chains them: a later edge only when strictly nearer.
+    let (q0, d0) = point_segment4(&pv, &a, &b);
+    let (q1, d1) = point_segment4(&pv, &b, &c);
+    let (q2, d2) = point_segment4(&pv, &c, &a);
+    let take1 = d1.simd_lt(d0);
+    let edge = select4(take1, &q0, &q1);
+    let edge_sq = take1.select(d1, d0);
+    let take2 = d2.simd_lt(edge_sq);
+    let edge = select4(take2, &edge, &q2);
+    let edge_sq = take2.select(d2, edge_sq);
+    let out = select4(over, &edge, &q);
+    (
+        out.map(f32x4::to_array),
+        over.select(q_sq, edge_sq).to_array(),
+    )
+}
+
+/// The plane tests and the projection of [`point_triangle_lanes_in`], in `f64` as
+/// `over_triangle` does them: per lane, the projection of `p` onto the triangle's plane
+/// (rounded to `f32`) and whether `p` lies over a triangle that is not degenerate (a mask).
+#[inline(always)]
+fn plane_lanes(p: &Point, t: &TriLanes) -> (V4, f32x4) {
     let pd: V4d = [p.x, p.y, p.z].map(|x| f64x4::splat(f64::from(x)));
     let [ad, bd, cd]: [V4d; 3] = t.v.map(|v| v.map(|l| f64x4::new(l.map(f64::from))));
     let abd = sub4(&bd, &ad);
@@ -168,25 +210,74 @@ pub(crate) fn point_triangle_lanes(p: &Point, t: &TriLanes) -> ([[Real; 4]; 3], 
             .to_array()
             .map(|m| f32::from_bits(m.to_bits() as u32)),
     );
-    let dq = sub4(&q, &pv);
-    let q_sq = dot4(&dq, &dq);
-    let finite = q[0].is_finite() & q[1].is_finite() & q[2].is_finite();
-    let over = inside & finite;
-    // The edges as `Closest::min` chains them: a later edge only when strictly nearer.
-    let (q0, d0) = point_segment4(&pv, &a, &b);
-    let (q1, d1) = point_segment4(&pv, &b, &c);
-    let (q2, d2) = point_segment4(&pv, &c, &a);
-    let take1 = d1.simd_lt(d0);
-    let edge = select4(take1, &q0, &q1);
-    let edge_sq = take1.select(d1, d0);
-    let take2 = d2.simd_lt(edge_sq);
-    let edge = select4(take2, &edge, &q2);
-    let edge_sq = take2.select(d2, edge_sq);
-    let out = select4(over, &edge, &q);
-    (
-        out.map(f32x4::to_array),
-        over.select(q_sq, edge_sq).to_array(),
-    )
+    (q, inside)
+}
+
+/// [`plane_lanes`] with AVX intrinsics: each `f64x4` one register instead of two SSE2 halves
+/// (the `wide` crate picks its instructions when it is compiled, for the baseline target). The
+/// same operations in the same order; the compares are ordered, false for NaN, as there.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+#[allow(unsafe_code)]
+fn plane_lanes_avx(p: &Point, t: &TriLanes) -> (V4, f32x4) {
+    use std::arch::x86_64::{
+        __m256d, _CMP_GE_OQ, _CMP_GT_OQ, _mm_loadu_ps, _mm_storeu_ps, _mm256_add_pd, _mm256_and_pd,
+        _mm256_cmp_pd, _mm256_cvtpd_ps, _mm256_cvtps_pd, _mm256_div_pd, _mm256_movemask_pd,
+        _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd, _mm256_sub_pd,
+    };
+    type D3 = [__m256d; 3];
+    let load = |l: &[Real; 4]| {
+        // SAFETY: four floats.
+        _mm256_cvtps_pd(unsafe { _mm_loadu_ps(l.as_ptr()) })
+    };
+    let sub = |a: &D3, b: &D3| -> D3 { [0, 1, 2].map(|k| _mm256_sub_pd(a[k], b[k])) };
+    let cross = |a: &D3, b: &D3| -> D3 {
+        [
+            _mm256_sub_pd(_mm256_mul_pd(a[1], b[2]), _mm256_mul_pd(a[2], b[1])),
+            _mm256_sub_pd(_mm256_mul_pd(a[2], b[0]), _mm256_mul_pd(a[0], b[2])),
+            _mm256_sub_pd(_mm256_mul_pd(a[0], b[1]), _mm256_mul_pd(a[1], b[0])),
+        ]
+    };
+    let dot = |a: &D3, b: &D3| {
+        _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(a[0], b[0]), _mm256_mul_pd(a[1], b[1])),
+            _mm256_mul_pd(a[2], b[2]),
+        )
+    };
+    let pd: D3 = [p.x, p.y, p.z].map(|x| _mm256_set1_pd(f64::from(x)));
+    let [ad, bd, cd]: [D3; 3] = t.v.map(|v| v.map(|l| load(&l)));
+    let abd = sub(&bd, &ad);
+    let n = cross(&abd, &sub(&cd, &ad));
+    let nn = dot(&n, &n);
+    let apd = sub(&pd, &ad);
+    let e0 = dot(&cross(&abd, &apd), &n);
+    let e1 = dot(&cross(&sub(&cd, &bd), &sub(&pd, &bd)), &n);
+    let e2 = dot(&cross(&sub(&ad, &cd), &sub(&pd, &cd)), &n);
+    let s = _mm256_div_pd(dot(&n, &apd), nn);
+    let q: V4 = [0, 1, 2].map(|k| {
+        let v = _mm256_cvtpd_ps(_mm256_sub_pd(pd[k], _mm256_mul_pd(n[k], s)));
+        let mut out = [0.0 as Real; 4];
+        // SAFETY: four floats.
+        unsafe { _mm_storeu_ps(out.as_mut_ptr(), v) };
+        f32x4::new(out)
+    });
+    let zero = _mm256_setzero_pd();
+    let inside = _mm256_and_pd(
+        _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GT_OQ>(nn, zero),
+            _mm256_cmp_pd::<_CMP_GE_OQ>(e0, zero),
+        ),
+        _mm256_and_pd(
+            _mm256_cmp_pd::<_CMP_GE_OQ>(e1, zero),
+            _mm256_cmp_pd::<_CMP_GE_OQ>(e2, zero),
+        ),
+    );
+    let bits = _mm256_movemask_pd(inside);
+    let inside = f32x4::new(std::array::from_fn(|l| {
+        f32::from_bits(if bits >> l & 1 == 1 { u32::MAX } else { 0 })
+    }));
+    (q, inside)
 }
 
 #[cfg(test)]
@@ -215,6 +306,13 @@ mod tests {
         ]
     }
 
+    /// The AVX instantiation of the four-lane kernel.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn lanes_avx(p: &Point, t: &TriLanes) -> ([[Real; 4]; 3], [Real; 4]) {
+        point_triangle_lanes_in::<true>(p, t)
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2048))]
 
@@ -234,7 +332,16 @@ mod tests {
                 2 => t[0] + (t[1] - t[0]) * s,
                 _ => free + (t[1] - t[0]).cross(&(t[2] - t[0])),
             };
-            let (on_b, dist_sq) = point_triangle_lanes(&p, &TriLanes::new(&tris));
+            let lanes = TriLanes::new(&tris);
+            let (on_b, dist_sq) = point_triangle_lanes_in::<false>(&p, &lanes);
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx") {
+                #[allow(unsafe_code)]
+                // SAFETY: AVX was found above.
+                let avx = unsafe { lanes_avx(&p, &lanes) };
+                prop_assert_eq!(avx.0.map(|c| c.map(f32::to_bits)), on_b.map(|c| c.map(f32::to_bits)));
+                prop_assert_eq!(avx.1.map(f32::to_bits), dist_sq.map(f32::to_bits));
+            }
             for (l, t) in tris.iter().enumerate() {
                 let c = point_triangle(&p, t);
                 prop_assert_eq!(dist_sq[l].to_bits(), c.dist_sq.to_bits(), "lane {}", l);
