@@ -336,174 +336,12 @@ fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64;
 /// A short cover ([`short_line`]'s result) for up to eight sections.
 type Covers8 = [Option<([i64; 3], [i64; 3], u64)>; 8];
 
-/// [`short_line`] for eight sections at once with AVX-512, for the sections whose cover lies
-/// within 2 x 2 x 2 cells (most hair sections): the same expressions, lane by lane, so the
-/// same ranges and masks. Every other section (not an LSS, outside the lattice, a negative or
-/// NaN radius, a longer range) gets `None`, for the scalar path to cover or reject. The
-/// per-axis cases of [`cover::small_mask`] are all computed and selected: which one applies is
-/// as likely one way as the other, and in the scalar loop their branches mispredict.
+/// The sections' ends and radii by lane into `f` (`[a.x, a.y, a.z, b.x, b.y, b.z, radius]`, each
+/// eight lanes, zeros to begin with); returns the lanes that are an LSS as bits. A lane that is
+/// not keeps zeros, and the lane kernels drop it.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-#[allow(unsafe_code)]
-fn small_covers_avx512(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
-    use std::arch::x86_64::{
-        __m512d, __m512i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm512_abs_pd,
-        _mm512_add_epi64, _mm512_add_pd, _mm512_castpd_si512, _mm512_cmp_pd_mask,
-        _mm512_cmpeq_epi64_mask, _mm512_cmple_epi64_mask, _mm512_cvtps_pd, _mm512_div_pd,
-        _mm512_mask_blend_pd, _mm512_mask_or_epi64, _mm512_mask_sub_epi64, _mm512_max_pd,
-        _mm512_min_pd, _mm512_mul_pd, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_pd,
-        _mm512_setzero_si512, _mm512_storeu_epi64, _mm512_sub_epi64, _mm512_sub_pd,
-    };
-    let mut out: Covers8 = [None; 8];
-    // The sections' ends and radii by lane; a lane that is not an LSS keeps zeros and is
-    // dropped below.
-    let mut f = [[0.0f32; 8]; 7];
-    let mut line = 0u8;
-    for (l, s) in secs.iter().take(8).enumerate() {
-        if let Ssv::Line(ln) = &s.shape {
-            for k in 0..3 {
-                f[k][l] = ln.a[k];
-                f[3 + k][l] = ln.b[k];
-            }
-            f[6][l] = ln.radius;
-            line |= 1 << l;
-        }
-    }
-    let wide = |c: &[f32; 8]| -> __m512d {
-        // SAFETY: eight floats.
-        _mm512_cvtps_pd(unsafe { std::arch::x86_64::_mm256_loadu_ps(c.as_ptr()) })
-    };
-    let inv_v = _mm512_set1_pd(inv);
-    let va: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[k]), inv_v));
-    let vb: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[3 + k]), inv_v));
-    let radius = wide(&f[6]);
-    let r = _mm512_add_pd(
-        _mm512_mul_pd(_mm512_add_pd(radius, _mm512_set1_pd(grow)), inv_v),
-        _mm512_set1_pd(EPS_CELLS),
-    );
-    let zero = _mm512_setzero_pd();
-    let one = _mm512_set1_pd(1.0);
-    let half = _mm512_set1_pd(LATTICE_HALF as f64);
-    // Not negative (NaN fails too, through `r` below).
-    let mut ok = line & _mm512_cmp_pd_mask::<_CMP_GE_OQ>(radius, zero);
-    // `floor_small`: the floor as an integer and as a float (exact: small integers).
-    const MAGIC: f64 = 6_755_399_441_055_744.0;
-    let magic = _mm512_set1_pd(MAGIC);
-    let magic_bits = _mm512_set1_epi64(MAGIC.to_bits() as i64);
-    let one_i = _mm512_set1_epi64(1);
-    let floor = |v: __m512d| -> (__m512i, __m512d) {
-        let sum = _mm512_add_pd(v, magic);
-        let back = _mm512_sub_pd(sum, magic);
-        let over = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(back, v);
-        let k = _mm512_sub_epi64(_mm512_castpd_si512(sum), magic_bits);
-        let k = _mm512_mask_sub_epi64(k, over, k, one_i);
-        (
-            k,
-            _mm512_mask_blend_pd(over, back, _mm512_sub_pd(back, one)),
-        )
-    };
-    let mut cl = [_mm512_setzero_si512(); 3];
-    let mut ch = [_mm512_setzero_si512(); 3];
-    let mut axes = [[zero; 4]; 3];
-    for k in 0..3 {
-        let (a, b) = (va[k], vb[k]);
-        // `if a < b { (a, b) } else { (b, a) }`.
-        let (mn, mx) = (_mm512_min_pd(a, b), _mm512_max_pd(b, a));
-        let (lo, hi) = (_mm512_sub_pd(mn, r), _mm512_add_pd(mx, r));
-        ok &= _mm512_cmp_pd_mask::<_CMP_GE_OQ>(lo, _mm512_sub_pd(zero, half))
-            & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(hi, half);
-        let (lo_i, lo_f) = floor(lo);
-        let (hi_i, _) = floor(hi);
-        cl[k] = lo_i;
-        ch[k] = hi_i;
-        let n = _mm512_add_epi64(_mm512_sub_epi64(hi_i, lo_i), one_i);
-        // At most two cells along every axis.
-        ok &= _mm512_cmple_epi64_mask(n, _mm512_set1_epi64(2));
-        let single = _mm512_cmpeq_epi64_mask(n, one_i);
-        // `cover::small_mask`'s bounds of the axis, every case.
-        let d = _mm512_sub_pd(b, a);
-        let inv_d = _mm512_div_pd(one, d);
-        let base = _mm512_sub_pd(lo_f, a);
-        let up = _mm512_mul_pd(_mm512_add_pd(_mm512_add_pd(base, one), r), inv_d);
-        let down = _mm512_mul_pd(_mm512_sub_pd(_mm512_add_pd(base, one), r), inv_d);
-        let rising = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d, zero);
-        let sloped = [
-            _mm512_mask_blend_pd(rising, _mm512_max_pd(up, zero), zero),
-            _mm512_mask_blend_pd(rising, one, _mm512_min_pd(up, one)),
-            _mm512_mask_blend_pd(rising, zero, _mm512_max_pd(down, zero)),
-            _mm512_mask_blend_pd(rising, _mm512_min_pd(down, one), one),
-        ];
-        let upper = |f: __m512d| {
-            let inside = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(a, _mm512_sub_pd(f, r))
-                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(a, _mm512_add_pd(_mm512_add_pd(f, one), r));
-            _mm512_mask_blend_pd(inside, _mm512_set1_pd(-1.0), one)
-        };
-        let flat = [zero, upper(lo_f), zero, upper(_mm512_add_pd(lo_f, one))];
-        let slanted =
-            _mm512_cmp_pd_mask::<_CMP_GT_OQ>(_mm512_abs_pd(d), _mm512_set1_pd(cover::TINY));
-        let one_cell = [zero, one, _mm512_set1_pd(2.0), _mm512_set1_pd(-1.0)];
-        axes[k] = std::array::from_fn(|j| {
-            let along = _mm512_mask_blend_pd(slanted, flat[j], sloped[j]);
-            _mm512_mask_blend_pd(single, along, one_cell[j])
-        });
-    }
-    let [x, y, z] = axes;
-    let mut mask = _mm512_setzero_si512();
-    for i in 0..2 {
-        for j in 0..2 {
-            let y0 = _mm512_max_pd(y[2 * j], x[2 * i]);
-            let y1 = _mm512_min_pd(y[2 * j + 1], x[2 * i + 1]);
-            for k in 0..2 {
-                let keep = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(
-                    _mm512_max_pd(z[2 * k], y0),
-                    _mm512_min_pd(z[2 * k + 1], y1),
-                );
-                let bit = _mm512_set1_epi64(1 << (4 * i + 2 * j + k));
-                mask = _mm512_mask_or_epi64(mask, keep, mask, bit);
-            }
-        }
-    }
-    let lanes = |v: __m512i| -> [i64; 8] {
-        let mut t = [0i64; 8];
-        // SAFETY: eight 64-bit integers.
-        unsafe { _mm512_storeu_epi64(t.as_mut_ptr(), v) };
-        t
-    };
-    let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
-    for (l, o) in out.iter_mut().enumerate().take(secs.len().min(8)) {
-        if ok & (1 << l) != 0 {
-            *o = Some((
-                [cl[0][l], cl[1][l], cl[2][l]],
-                [ch[0][l], ch[1][l], ch[2][l]],
-                SMALL | mask[l] as u64,
-            ));
-        }
-    }
-    out
-}
-
-/// [`small_covers_avx512`] with AVX2: the same expressions in four `f64` lanes, run on each half
-/// of the eight sections, so the same ranges and masks. Without mask registers the lane tests
-/// are compare results (all ones where true), blended and turned into bits with `movemask`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-#[allow(unsafe_code)]
-fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
-    use std::arch::x86_64::{
-        __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_loadu_ps,
-        _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256, _mm256_blendv_pd,
-        _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_cmp_pd, _mm256_cmpeq_epi64,
-        _mm256_cmpgt_epi64, _mm256_cvtps_pd, _mm256_div_pd, _mm256_max_pd, _mm256_min_pd,
-        _mm256_movemask_pd, _mm256_mul_pd, _mm256_or_si256, _mm256_set1_epi64x, _mm256_set1_pd,
-        _mm256_setzero_pd, _mm256_setzero_si256, _mm256_storeu_si256, _mm256_sub_epi64,
-        _mm256_sub_pd,
-    };
-    let mut out: Covers8 = [None; 8];
-    // The sections' ends and radii by lane; a lane that is not an LSS keeps zeros and is
-    // dropped below.
-    let mut f = [[0.0f32; 8]; 7];
+#[inline(always)]
+fn lines8(secs: &[Section], f: &mut [[f32; 8]; 7]) -> u32 {
     let mut line = 0u32;
     for (l, s) in secs.iter().take(8).enumerate() {
         if let Ssv::Line(ln) = &s.shape {
@@ -515,6 +353,224 @@ fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
             line |= 1 << l;
         }
     }
+    line
+}
+
+/// [`short_line`]'s arithmetic on lanes, for the sections whose cover lies within 2 x 2 x 2
+/// cells: from the ends in cells `$va`, `$vb` and the radius `$radius` (`f64` lanes), the lanes
+/// that are such a cover (bits, from `$ok`, the lanes that are an LSS), the cell ranges' low and
+/// high corners (`i64` lanes) and the masks of [`cover::small_mask`], as `(ok, cl, ch, mask)`.
+/// Written once for the AVX-512 and AVX2 kernels, which then run the same operations in the same
+/// order. `$cmp::<P>(a, b)` compares into a lane mask, `$and` joins two, `$bits` turns one into
+/// bits, `$blend(m, no, yes)` takes `yes` where it is set, `$floor` is `floor_small` as an integer
+/// and a float, `$narrow` the bits of the integer lanes of at most 2, `$single` the mask of those
+/// of 1, and `$set(mask, m, bit)` sets `bit` in the integer lanes where `m` is set. Every case of
+/// the scalar small mask is computed and then selected: which one applies is as likely one way
+/// as the other, and in the scalar loop their branches mispredict.
+#[cfg(target_arch = "x86_64")]
+macro_rules! small_cover_lanes {
+    ($va:expr, $vb:expr, $radius:expr, $ok:expr, $inv:expr, $grow:expr, $v:ty,
+     add: $add:expr, sub: $sub:expr, mul: $mul:expr, div: $div:expr, min: $min:expr,
+     max: $max:expr, abs: $abs:expr, splat: $splat:expr, cmp: $cmp:ident, and: $and:expr,
+     bits: $bits:expr, blend: $blend:expr, floor: $floor:expr, int_sub: $isub:expr,
+     int_one: $ione:expr, int_add: $iadd:expr, narrow: $narrow:expr, single: $single:expr,
+     int_zero: $izero:expr, set: $set:expr) => {{
+        let (va, vb, radius): ([$v; 3], [$v; 3], $v) = ($va, $vb, $radius);
+        let (add, sub, mul, min, max, blend, and) = ($add, $sub, $mul, $min, $max, $blend, $and);
+        let (zero, one): ($v, $v) = ($splat(0.0), $splat(1.0));
+        let inv_v = $splat($inv);
+        let r = add(mul(add(radius, $splat($grow)), inv_v), $splat(EPS_CELLS));
+        let half = $splat(LATTICE_HALF as f64);
+        // Not negative (NaN fails too, through `r` below).
+        let mut ok: u32 = $ok & $bits($cmp::<_CMP_GE_OQ>(radius, zero));
+        let mut cl = [$izero; 3];
+        let mut ch = [$izero; 3];
+        let mut axes = [[zero; 4]; 3];
+        for k in 0..3 {
+            let (a, b) = (va[k], vb[k]);
+            // `if a < b { (a, b) } else { (b, a) }`.
+            let (mn, mx) = (min(a, b), max(b, a));
+            let (lo, hi) = (sub(mn, r), add(mx, r));
+            ok &= $bits(and(
+                $cmp::<_CMP_GE_OQ>(lo, sub(zero, half)),
+                $cmp::<_CMP_LT_OQ>(hi, half),
+            ));
+            let (lo_i, lo_f) = $floor(lo);
+            let (hi_i, _) = $floor(hi);
+            cl[k] = lo_i;
+            ch[k] = hi_i;
+            let n = $iadd($isub(hi_i, lo_i), $ione);
+            // At most two cells along every axis.
+            ok &= $narrow(n);
+            let single = $single(n);
+            // `cover::small_mask`'s bounds of the axis, every case.
+            let d = sub(b, a);
+            let inv_d = $div(one, d);
+            let base = sub(lo_f, a);
+            let up = mul(add(add(base, one), r), inv_d);
+            let down = mul(sub(add(base, one), r), inv_d);
+            let rising = $cmp::<_CMP_GT_OQ>(d, zero);
+            let sloped = [
+                blend(rising, max(up, zero), zero),
+                blend(rising, one, min(up, one)),
+                blend(rising, zero, max(down, zero)),
+                blend(rising, min(down, one), one),
+            ];
+            let upper = |f: $v| {
+                let inside = and(
+                    $cmp::<_CMP_GE_OQ>(a, sub(f, r)),
+                    $cmp::<_CMP_LE_OQ>(a, add(add(f, one), r)),
+                );
+                blend(inside, $splat(-1.0), one)
+            };
+            let flat = [zero, upper(lo_f), zero, upper(add(lo_f, one))];
+            let slanted = $cmp::<_CMP_GT_OQ>($abs(d), $splat(cover::TINY));
+            let one_cell = [zero, one, $splat(2.0), $splat(-1.0)];
+            axes[k] = std::array::from_fn(|j| {
+                let along = blend(slanted, flat[j], sloped[j]);
+                blend(single, along, one_cell[j])
+            });
+        }
+        let [x, y, z] = axes;
+        let mut mask = $izero;
+        for i in 0..2 {
+            for j in 0..2 {
+                let y0 = max(y[2 * j], x[2 * i]);
+                let y1 = min(y[2 * j + 1], x[2 * i + 1]);
+                for k in 0..2 {
+                    let keep = $cmp::<_CMP_LE_OQ>(max(z[2 * k], y0), min(z[2 * k + 1], y1));
+                    mask = $set(mask, keep, 1i64 << (4 * i + 2 * j + k));
+                }
+            }
+        }
+        (ok, cl, ch, mask)
+    }};
+}
+
+/// The covers of the lanes set in `ok` from their corners and masks (lanes `first..`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn covers_out<const N: usize>(
+    out: &mut Covers8,
+    first: usize,
+    len: usize,
+    ok: u32,
+    (cl, ch, mask): (&[[i64; N]; 3], &[[i64; N]; 3], &[i64; N]),
+) {
+    for l in 0..N {
+        let o = first + l;
+        if o < len && ok & (1 << l) != 0 {
+            out[o] = Some((
+                [cl[0][l], cl[1][l], cl[2][l]],
+                [ch[0][l], ch[1][l], ch[2][l]],
+                SMALL | mask[l] as u64,
+            ));
+        }
+    }
+}
+
+/// `floor_small`'s constant: `1.5 * 2^52`, whose sum with a small value rounds it to an integer
+/// held in the low bits.
+#[cfg(target_arch = "x86_64")]
+const MAGIC: f64 = 6_755_399_441_055_744.0;
+
+/// [`short_line`] for eight sections at once with AVX-512, for the sections whose cover lies
+/// within 2 x 2 x 2 cells (most hair sections): the same expressions, lane by lane
+/// ([`small_cover_lanes`]), so the same ranges and masks, into `out`. Every other section (not an LSS,
+/// outside the lattice, a negative or NaN radius, a longer range) gets `None`, for the scalar
+/// path to cover or reject.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+#[allow(unsafe_code)]
+fn small_covers_avx512(secs: &[Section], inv: f64, grow: f64, out: &mut Covers8) {
+    use std::arch::x86_64::{
+        __m512d, __m512i, __mmask8, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm512_abs_pd,
+        _mm512_add_epi64, _mm512_add_pd, _mm512_castpd_si512, _mm512_cmp_pd_mask,
+        _mm512_cmpeq_epi64_mask, _mm512_cmple_epi64_mask, _mm512_cvtps_pd, _mm512_div_pd,
+        _mm512_mask_blend_pd, _mm512_mask_or_epi64, _mm512_mask_sub_epi64, _mm512_max_pd,
+        _mm512_min_pd, _mm512_mul_pd, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
+        _mm512_storeu_epi64, _mm512_sub_epi64, _mm512_sub_pd,
+    };
+    *out = [None; 8];
+    let mut f = [[0.0f32; 8]; 7];
+    let line = lines8(secs, &mut f);
+    let wide = |c: &[f32; 8]| -> __m512d {
+        // SAFETY: eight floats.
+        _mm512_cvtps_pd(unsafe { std::arch::x86_64::_mm256_loadu_ps(c.as_ptr()) })
+    };
+    let inv_v = _mm512_set1_pd(inv);
+    let va: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[k]), inv_v));
+    let vb: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[3 + k]), inv_v));
+    let one = _mm512_set1_pd(1.0);
+    let magic = _mm512_set1_pd(MAGIC);
+    let magic_bits = _mm512_set1_epi64(MAGIC.to_bits() as i64);
+    let one_i = _mm512_set1_epi64(1);
+    // `floor_small`: the floor as an integer and as a float (exact: small integers).
+    let floor = |v: __m512d| -> (__m512i, __m512d) {
+        let sum = _mm512_add_pd(v, magic);
+        let back = _mm512_sub_pd(sum, magic);
+        let over = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(back, v);
+        let k = _mm512_sub_epi64(_mm512_castpd_si512(sum), magic_bits);
+        let k = _mm512_mask_sub_epi64(k, over, k, one_i);
+        (
+            k,
+            _mm512_mask_blend_pd(over, back, _mm512_sub_pd(back, one)),
+        )
+    };
+    let (ok, cl, ch, mask) = small_cover_lanes!(
+        va, vb, wide(&f[6]), line, inv, grow, __m512d,
+        add: _mm512_add_pd,
+        sub: _mm512_sub_pd,
+        mul: _mm512_mul_pd,
+        div: _mm512_div_pd,
+        min: _mm512_min_pd,
+        max: _mm512_max_pd,
+        abs: _mm512_abs_pd,
+        splat: _mm512_set1_pd,
+        cmp: _mm512_cmp_pd_mask,
+        and: |a: __mmask8, b: __mmask8| a & b,
+        bits: u32::from,
+        blend: |m: __mmask8, no, yes| _mm512_mask_blend_pd(m, no, yes),
+        floor: floor,
+        int_sub: _mm512_sub_epi64,
+        int_one: one_i,
+        int_add: _mm512_add_epi64,
+        narrow: |n| u32::from(_mm512_cmple_epi64_mask(n, _mm512_set1_epi64(2))),
+        single: |n| _mm512_cmpeq_epi64_mask(n, one_i),
+        int_zero: _mm512_setzero_si512(),
+        set: |mask, keep, bit| _mm512_mask_or_epi64(mask, keep, mask, _mm512_set1_epi64(bit))
+    );
+    let lanes = |v: __m512i| -> [i64; 8] {
+        let mut t = [0i64; 8];
+        // SAFETY: eight 64-bit integers.
+        unsafe { _mm512_storeu_epi64(t.as_mut_ptr(), v) };
+        t
+    };
+    let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
+    covers_out(out, 0, secs.len(), ok, (&cl, &ch, &mask));
+}
+
+/// [`small_covers_avx512`] with AVX2: the same expressions ([`small_cover_lanes`]) in four `f64`
+/// lanes, run on each half of the eight sections, so the same ranges and masks. Without mask
+/// registers the lane tests are compare results (all ones where true), blended and turned into
+/// bits with `movemask`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(unsafe_code)]
+fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64, out: &mut Covers8) {
+    use std::arch::x86_64::{
+        __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_loadu_ps,
+        _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256, _mm256_blendv_pd,
+        _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_cmp_pd, _mm256_cmpeq_epi64,
+        _mm256_cmpgt_epi64, _mm256_cvtps_pd, _mm256_div_pd, _mm256_max_pd, _mm256_min_pd,
+        _mm256_movemask_pd, _mm256_mul_pd, _mm256_or_si256, _mm256_set1_epi64x, _mm256_set1_pd,
+        _mm256_setzero_si256, _mm256_storeu_si256, _mm256_sub_epi64, _mm256_sub_pd,
+    };
+    *out = [None; 8];
+    let mut f = [[0.0f32; 8]; 7];
+    let line = lines8(secs, &mut f);
     let bits = |m: __m256d| _mm256_movemask_pd(m) as u32;
     let lanes = |v: __m256i| -> [i64; 4] {
         let mut t = [0i64; 4];
@@ -522,6 +578,24 @@ fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
         unsafe { _mm256_storeu_si256(t.as_mut_ptr().cast(), v) };
         t
     };
+    let one = _mm256_set1_pd(1.0);
+    let magic = _mm256_set1_pd(MAGIC);
+    let magic_bits = _mm256_set1_epi64x(MAGIC.to_bits() as i64);
+    let one_i = _mm256_set1_epi64x(1);
+    // `floor_small`: the floor as an integer and as a float (exact: small integers).
+    let floor = |v: __m256d| -> (__m256i, __m256d) {
+        let sum = _mm256_add_pd(v, magic);
+        let back = _mm256_sub_pd(sum, magic);
+        let over = _mm256_cmp_pd::<_CMP_GT_OQ>(back, v);
+        // `over` is all ones (-1) where set: adding it subtracts one.
+        let k = _mm256_sub_epi64(_mm256_castpd_si256(sum), magic_bits);
+        let k = _mm256_add_epi64(k, _mm256_castpd_si256(over));
+        (k, _mm256_blendv_pd(back, _mm256_sub_pd(back, one), over))
+    };
+    let (two_i, sign_off) = (
+        _mm256_set1_epi64x(2),
+        _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX)),
+    );
     for half in 0..2 {
         let wide = |c: &[f32; 8]| -> __m256d {
             // SAFETY: four floats of the eight, from `4 * half`.
@@ -530,110 +604,36 @@ fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64) -> Covers8 {
         let inv_v = _mm256_set1_pd(inv);
         let va: [__m256d; 3] = std::array::from_fn(|k| _mm256_mul_pd(wide(&f[k]), inv_v));
         let vb: [__m256d; 3] = std::array::from_fn(|k| _mm256_mul_pd(wide(&f[3 + k]), inv_v));
-        let radius = wide(&f[6]);
-        let r = _mm256_add_pd(
-            _mm256_mul_pd(_mm256_add_pd(radius, _mm256_set1_pd(grow)), inv_v),
-            _mm256_set1_pd(EPS_CELLS),
-        );
-        let zero = _mm256_setzero_pd();
-        let one = _mm256_set1_pd(1.0);
-        let half_lattice = _mm256_set1_pd(LATTICE_HALF as f64);
-        let ge = |a, b| _mm256_cmp_pd::<_CMP_GE_OQ>(a, b);
-        let gt = |a, b| _mm256_cmp_pd::<_CMP_GT_OQ>(a, b);
-        let le = |a, b| _mm256_cmp_pd::<_CMP_LE_OQ>(a, b);
-        let lt = |a, b| _mm256_cmp_pd::<_CMP_LT_OQ>(a, b);
-        // `blend(m, no, yes)`: `yes` where the lane test `m` holds.
-        let blend = |m: __m256d, no: __m256d, yes: __m256d| _mm256_blendv_pd(no, yes, m);
-        // Not negative (NaN fails too, through `r` below).
-        let mut ok = (line >> (4 * half)) & 0xf & bits(ge(radius, zero));
-        // `floor_small`: the floor as an integer and as a float (exact: small integers).
-        const MAGIC: f64 = 6_755_399_441_055_744.0;
-        let magic = _mm256_set1_pd(MAGIC);
-        let magic_bits = _mm256_set1_epi64x(MAGIC.to_bits() as i64);
-        let one_i = _mm256_set1_epi64x(1);
-        let floor = |v: __m256d| -> (__m256i, __m256d) {
-            let sum = _mm256_add_pd(v, magic);
-            let back = _mm256_sub_pd(sum, magic);
-            let over = gt(back, v);
-            // `over` is all ones (-1) where set: adding it subtracts one.
-            let k = _mm256_sub_epi64(_mm256_castpd_si256(sum), magic_bits);
-            let k = _mm256_add_epi64(k, _mm256_castpd_si256(over));
-            (k, blend(over, back, _mm256_sub_pd(back, one)))
-        };
-        let mut cl = [_mm256_setzero_si256(); 3];
-        let mut ch = [_mm256_setzero_si256(); 3];
-        let mut axes = [[zero; 4]; 3];
-        for k in 0..3 {
-            let (a, b) = (va[k], vb[k]);
-            // `if a < b { (a, b) } else { (b, a) }`.
-            let (mn, mx) = (_mm256_min_pd(a, b), _mm256_max_pd(b, a));
-            let (lo, hi) = (_mm256_sub_pd(mn, r), _mm256_add_pd(mx, r));
-            ok &= bits(ge(lo, _mm256_sub_pd(zero, half_lattice))) & bits(lt(hi, half_lattice));
-            let (lo_i, lo_f) = floor(lo);
-            let (hi_i, _) = floor(hi);
-            cl[k] = lo_i;
-            ch[k] = hi_i;
-            let n = _mm256_add_epi64(_mm256_sub_epi64(hi_i, lo_i), one_i);
-            // At most two cells along every axis.
-            let wide_axis = _mm256_cmpgt_epi64(n, _mm256_set1_epi64x(2));
-            ok &= !bits(_mm256_castsi256_pd(wide_axis)) & 0xf;
-            let single = _mm256_castsi256_pd(_mm256_cmpeq_epi64(n, one_i));
-            // `cover::small_mask`'s bounds of the axis, every case.
-            let d = _mm256_sub_pd(b, a);
-            let inv_d = _mm256_div_pd(one, d);
-            let base = _mm256_sub_pd(lo_f, a);
-            let up = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(base, one), r), inv_d);
-            let down = _mm256_mul_pd(_mm256_sub_pd(_mm256_add_pd(base, one), r), inv_d);
-            let rising = gt(d, zero);
-            let sloped = [
-                blend(rising, _mm256_max_pd(up, zero), zero),
-                blend(rising, one, _mm256_min_pd(up, one)),
-                blend(rising, zero, _mm256_max_pd(down, zero)),
-                blend(rising, _mm256_min_pd(down, one), one),
-            ];
-            let upper = |f: __m256d| {
-                let inside = _mm256_and_pd(
-                    ge(a, _mm256_sub_pd(f, r)),
-                    le(a, _mm256_add_pd(_mm256_add_pd(f, one), r)),
-                );
-                blend(inside, _mm256_set1_pd(-1.0), one)
-            };
-            let flat = [zero, upper(lo_f), zero, upper(_mm256_add_pd(lo_f, one))];
+        let (ok, cl, ch, mask) = small_cover_lanes!(
+            va, vb, wide(&f[6]), (line >> (4 * half)) & 0xf, inv, grow, __m256d,
+            add: _mm256_add_pd,
+            sub: _mm256_sub_pd,
+            mul: _mm256_mul_pd,
+            div: _mm256_div_pd,
+            min: _mm256_min_pd,
+            max: _mm256_max_pd,
             // |d| as d with the sign bit cleared.
-            let abs_d = _mm256_and_pd(d, _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX)));
-            let slanted = gt(abs_d, _mm256_set1_pd(cover::TINY));
-            let one_cell = [zero, one, _mm256_set1_pd(2.0), _mm256_set1_pd(-1.0)];
-            axes[k] = std::array::from_fn(|j| {
-                let along = blend(slanted, flat[j], sloped[j]);
-                blend(single, along, one_cell[j])
-            });
-        }
-        let [x, y, z] = axes;
-        let mut mask = _mm256_setzero_si256();
-        for i in 0..2 {
-            for j in 0..2 {
-                let y0 = _mm256_max_pd(y[2 * j], x[2 * i]);
-                let y1 = _mm256_min_pd(y[2 * j + 1], x[2 * i + 1]);
-                for k in 0..2 {
-                    let keep = le(_mm256_max_pd(z[2 * k], y0), _mm256_min_pd(z[2 * k + 1], y1));
-                    let bit = _mm256_set1_epi64x(1 << (4 * i + 2 * j + k));
-                    mask = _mm256_or_si256(mask, _mm256_and_si256(_mm256_castpd_si256(keep), bit));
-                }
-            }
-        }
+            abs: |d| _mm256_and_pd(d, sign_off),
+            splat: _mm256_set1_pd,
+            cmp: _mm256_cmp_pd,
+            and: _mm256_and_pd,
+            bits: bits,
+            blend: |m, no, yes| _mm256_blendv_pd(no, yes, m),
+            floor: floor,
+            int_sub: _mm256_sub_epi64,
+            int_one: one_i,
+            int_add: _mm256_add_epi64,
+            narrow: |n| !bits(_mm256_castsi256_pd(_mm256_cmpgt_epi64(n, two_i))) & 0xf,
+            single: |n| _mm256_castsi256_pd(_mm256_cmpeq_epi64(n, one_i)),
+            int_zero: _mm256_setzero_si256(),
+            set: |mask, keep, bit| _mm256_or_si256(
+                mask,
+                _mm256_and_si256(_mm256_castpd_si256(keep), _mm256_set1_epi64x(bit))
+            )
+        );
         let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
-        for l in 0..4 {
-            let o = 4 * half + l;
-            if o < secs.len() && ok & (1 << l) != 0 {
-                out[o] = Some((
-                    [cl[0][l], cl[1][l], cl[2][l]],
-                    [ch[0][l], ch[1][l], ch[2][l]],
-                    SMALL | mask[l] as u64,
-                ));
-            }
-        }
+        covers_out(out, 4 * half, secs.len(), ok, (&cl, &ch, &mask));
     }
-    out
 }
 
 /// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
@@ -1176,10 +1176,10 @@ impl Grid {
                         #[allow(unsafe_code)]
                         match wide {
                             crate::pairs::Kernel::Avx512 => {
-                                group = unsafe { small_covers_avx512(&secs[l..], inv, grow) };
+                                unsafe { small_covers_avx512(&secs[l..], inv, grow, &mut group) };
                             }
                             crate::pairs::Kernel::Avx2 => {
-                                group = unsafe { small_covers_avx2(&secs[l..], inv, grow) };
+                                unsafe { small_covers_avx2(&secs[l..], inv, grow, &mut group) };
                             }
                             crate::pairs::Kernel::Base => {}
                         }
@@ -1760,19 +1760,29 @@ mod tests {
                     }
                 })
                 .collect();
-            #[allow(unsafe_code)]
+            let mut group = [None; 8];
             // SAFETY: AVX2 was found above.
-            let group = unsafe { small_covers_avx2(&secs, inv, grow) };
+            #[allow(unsafe_code)]
+            unsafe {
+                small_covers_avx2(&secs, inv, grow, &mut group)
+            };
             if avx512 {
-                #[allow(unsafe_code)]
+                // Whatever `out` held before is replaced.
+                let mut group512 = [Some(([0; 3], [0; 3], 0)); 8];
                 // SAFETY: AVX-512F was found above.
-                let group512 = unsafe { small_covers_avx512(&secs, inv, grow) };
+                #[allow(unsafe_code)]
+                unsafe {
+                    small_covers_avx512(&secs, inv, grow, &mut group512)
+                };
                 assert_eq!(group512, group);
             }
-            // Fewer than eight sections: the lanes past them stay empty.
-            #[allow(unsafe_code)]
+            // Fewer than eight sections: the lanes past them are emptied.
+            let mut five = [Some(([0; 3], [0; 3], 0)); 8];
             // SAFETY: AVX2 was found above.
-            let five = unsafe { small_covers_avx2(&secs[..5], inv, grow) };
+            #[allow(unsafe_code)]
+            unsafe {
+                small_covers_avx2(&secs[..5], inv, grow, &mut five)
+            };
             assert_eq!(five[..5], group[..5]);
             assert_eq!(five[5..], [None; 3]);
             for (s, got) in secs.iter().zip(group) {
