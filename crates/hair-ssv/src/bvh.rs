@@ -10,8 +10,9 @@
 //! On a processor with AVX the point search runs compiled for it, with the exact test's `f64`
 //! plane tests in AVX registers: the `wide` crate picks its instructions when it is compiled, for
 //! the baseline target, so its four `f64` lanes took two SSE2 instructions each, also inside a
-//! function compiled for AVX. The same answers (the `point_profile` hash); 19,600 to 13,100
-//! instructions per query (callgrind, a build of the time), and 3.26-3.52 us against
+//! function compiled for AVX. The same answers (the `point_profile` hash). Callgrind on
+//! `point_profile` 1 and 3 with the compiler and code of the time (the figure above is older):
+//! 19,600 instructions per query before, 13,100 after. In time, 3.26-3.52 us against
 //! 3.50-3.58 us per query (fastest of 10, four alternated rounds on a busy 2-core machine): the
 //! search waits on memory more than on arithmetic.
 //!
