@@ -52,6 +52,15 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    // A misspelt kernel would otherwise run the widest one unnoticed, and its figures would be
+    // taken for the narrower kernel's.
+    if let Err(value) = hair::grid::requested_kernel() {
+        eprintln!(
+            "error: HAIR_GRID_KERNEL={value:?} names no kernel (avx512, avx2 or baseline; unset: \
+             the widest this processor has)"
+        );
+        return std::process::ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Run(args) => run::run(args),
         Command::Scenes(args) => scenes::run(args),

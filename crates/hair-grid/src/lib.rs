@@ -203,6 +203,20 @@
 //! fifth to a quarter (`build_ms` 14.4-14.8 to 18.1-18.3, `pairs_ms` 11.5-11.7 to 13.6-14.5).
 //! A processor without AVX-512 runs the AVX2 kernels, at about the figures before.
 //!
+//! The environment variable `HAIR_GRID_KERNEL` (`avx2` or `baseline`) runs a narrower kernel
+//! than the processor has ([`requested_kernel`]), so that one machine measures all of them.
+//! `cargo run --release -- bench grid --json` on an AVX-512 machine, two runs each (medians of
+//! seven, milliseconds):
+//!
+//! | kernel | `build_ms` | `pairs_ms` | `total_ms` |
+//! |---|---|---|---|
+//! | `avx512` | 13.3-14.0 | 10.9-11.2 | 24.6-24.9 |
+//! | `avx2` | 13.3-14.3 | 19.6-20.2 | 32.8-34.5 |
+//! | `baseline` | 15.9-19.0 | 25.1-28.6 | 41.1-47.0 |
+//!
+//! Every run found the same 199,478 pairs, identical to parry's and to brute force on the
+//! subset.
+//!
 //! The rebuild then stopped copying each section twice: once into a 64-byte record (box, ids and
 //! core) in the caller's order, once as its shape (19 MB and 16 MB written per rebuild of the
 //! bench scene). The pack now reads the caller's sections directly in the search's order, both
@@ -335,6 +349,6 @@ pub use cell_key::{CellKey, LATTICE_HALF};
 pub use error::GridError;
 pub use grid::{Grid, GridConfig, Section};
 pub use influence::{Cone, InfluenceVolume};
-pub use pairs::{PairSet, kernel_name};
+pub use pairs::{PairSet, kernel_name, requested_kernel};
 
 pub use hair_ssv::{Point, Real, Ssv, Vector};

@@ -407,7 +407,7 @@ impl Grid {
             out.chunks.resize_with(tasks, PairChunk::default);
         }
         out.used = tasks;
-        let kernel = kernel.min(Kernel::best());
+        let kernel = kernel.min(Kernel::detected());
         let bounds = &out.bounds;
         out.chunks[..tasks]
             .par_iter_mut()
@@ -1183,21 +1183,28 @@ pub(crate) enum Kernel {
 }
 
 /// The instruction set the pair search and the rebuild's covers use on this processor:
-/// `"avx512"`, `"avx2"` or `"baseline"` (SSE2 on x86-64, plain Rust elsewhere). Every kernel gives
-/// the same cells and pairs in the same order; only the time differs, so benchmark figures
-/// should name it.
+/// `"avx512"`, `"avx2"` or `"baseline"` (SSE2 on x86-64, plain Rust elsewhere): the widest it
+/// has, or a narrower one asked for by `HAIR_GRID_KERNEL` ([`requested_kernel`]). Every kernel
+/// gives the same cells and pairs in the same order; only the time differs, so benchmark
+/// figures should name it.
 pub fn kernel_name() -> &'static str {
-    match Kernel::best() {
-        Kernel::Avx512 => "avx512",
-        Kernel::Avx2 => "avx2",
-        Kernel::Base => "baseline",
-    }
+    Kernel::best().name()
 }
 
 impl Kernel {
+    /// The kernel the grid runs: the widest this processor has ([`Kernel::detected`]), no wider
+    /// than `HAIR_GRID_KERNEL` asks ([`kernel_cap`]).
+    pub(crate) fn best() -> Self {
+        let detected = Self::detected();
+        match kernel_cap() {
+            Ok(Some(cap)) => detected.min(*cap),
+            _ => detected,
+        }
+    }
+
     /// The widest kernel this processor runs (checked once by the standard library, then
     /// cached).
-    pub(crate) fn best() -> Self {
+    pub(crate) fn detected() -> Self {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("popcnt")
@@ -1212,6 +1219,45 @@ impl Kernel {
             Kernel::Base
         }
     }
+
+    fn name(self) -> &'static str {
+        match self {
+            Kernel::Avx512 => "avx512",
+            Kernel::Avx2 => "avx2",
+            Kernel::Base => "baseline",
+        }
+    }
+
+    /// The kernel of a name as [`kernel_name`] gives it.
+    fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "avx512" => Some(Kernel::Avx512),
+            "avx2" => Some(Kernel::Avx2),
+            "baseline" => Some(Kernel::Base),
+            _ => None,
+        }
+    }
+}
+
+/// The kernel the environment variable `HAIR_GRID_KERNEL` asks for (`avx512`, `avx2` or
+/// `baseline`, as [`kernel_name`] names them), read once: `Ok(None)` when it is not set, and
+/// `Err` with the value when it names no kernel (the grid then runs the widest kernel the
+/// processor has, as when it is not set). It only narrows: a kernel the processor lacks is not
+/// run, the widest it has is. For measuring the narrower kernels on a wide machine; every
+/// kernel gives the same cells and pairs in the same order, so a simulation's states do not
+/// change with it.
+pub fn requested_kernel() -> Result<Option<&'static str>, String> {
+    kernel_cap().clone().map(|k| k.map(Kernel::name))
+}
+
+/// [`requested_kernel`] as a kernel.
+fn kernel_cap() -> &'static Result<Option<Kernel>, String> {
+    static CAP: std::sync::OnceLock<Result<Option<Kernel>, String>> = std::sync::OnceLock::new();
+    CAP.get_or_init(|| match std::env::var("HAIR_GRID_KERNEL") {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(v)) => Err(v.to_string_lossy().into_owned()),
+        Ok(v) => Kernel::from_name(v.trim()).map(Some).ok_or(v),
+    })
 }
 
 /// The 16 x 8 transpose of sixteen rows of eight floats: lane `l` of output `k` is field `k` of
@@ -1776,7 +1822,7 @@ mod tests {
             }
             // Sixteen lanes: this block, then the previous one.
             #[cfg(target_arch = "x86_64")]
-            if Kernel::best() == Kernel::Avx512 {
+            if Kernel::detected() == Kernel::Avx512 {
                 let pair: Vec<[u32; 2]> = block.iter().chain(&previous).copied().collect();
                 #[allow(unsafe_code)]
                 // SAFETY: AVX-512F was found on this processor.
@@ -1788,7 +1834,7 @@ mod tests {
             previous = block;
         }
         #[cfg(target_arch = "x86_64")]
-        if Kernel::best() == Kernel::Avx512 {
+        if Kernel::detected() == Kernel::Avx512 {
             assert_eq!(wide16, 500);
         }
         assert!(decided > 3000, "{decided}");
