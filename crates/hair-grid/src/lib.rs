@@ -288,6 +288,15 @@
 //! - **A sweep's row ends found eight sections at a time** instead of by binary search (the rows
 //!   then test up to seven boxes more, which miss): the same instructions within 0.1% and the
 //!   same time on `wardlin`'s sections (13.1-13.3 ms either way).
+//! - **The first hits of a row without a loop** (the AVX2 and baseline rows): the first four
+//!   hits taken in straight-line code, a slot past the last hit testing the row's own section and
+//!   keeping nothing, so that the loop over hits, whose exit depends on how many there are,
+//!   runs only for rows with more. Measured on an AVX-512 machine with `HAIR_GRID_KERNEL=avx2`
+//!   (`grid_profile pairs 20`, three alternated rounds): fastest search 22.9-23.1 ms against
+//!   19.9-20.6 ms; with one slot, 19.9-20.1 ms against 20.1-20.2 ms (no change).
+//! - **Smaller cells for `wardlin`'s sections** (the dump of step 41 above, whose default cells
+//!   are 137 crowded ones): fastest of 30 searches 7.2 ms by default, 10.6, 8.4, 7.3 and
+//!   7.1 ms in cells of 2, 2.5, 3 and 4 cm. Not worth a setting.
 //! - **Transparent huge pages** for the large buffers (glibc's `glibc.malloc.hugetlb=1`, which
 //!   advises them so): `grid_profile both 10` over eight alternated rounds gave the same
 //!   fastest rebuild (23.6 ms on average either way) and a slower search (29.7 against
