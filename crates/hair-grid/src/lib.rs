@@ -215,7 +215,9 @@
 //! | `baseline` | 15.9-19.0 | 25.1-28.6 | 41.1-47.0 |
 //!
 //! Every run found the same 199,478 pairs, identical to parry's and to brute force on the
-//! subset.
+//! subset. After the AVX2 rows in blocks (below), three runs each on a noisier hour gave
+//! `total_ms` 24.9-26.3 (`avx512`), 30.7-38.3 (`avx2`, `pairs_ms` 18.2-21.7) and 37.0-44.4 ms
+//! (`baseline`).
 //!
 //! The rebuild then stopped copying each section twice: once into a 64-byte record (box, ids and
 //! core) in the caller's order, once as its shape (19 MB and 16 MB written per rebuild of the
@@ -301,6 +303,32 @@
 //!   advises them so): `grid_profile both 10` over eight alternated rounds gave the same
 //!   fastest rebuild (23.6 ms on average either way) and a slower search (29.7 against
 //!   28.1 ms).
+//!
+//! ### AVX2 rows in blocks
+//!
+//! The AVX2 kernel now searches a cell in the AVX-512 kernel's layout: blocks of sixteen
+//! sections, every field at a fixed offset from one pointer. It tests eight boxes per compare and
+//! drops the hits whose pair an earlier cell surely reports, as before, then takes the neighbour
+//! and owner tests hit by hit. With a pointer per column, the row loop had kept about 190
+//! instructions of bounds checks, reloaded pointers and spilled registers for every row. A pair
+//! the bit sets cannot tell sends the row to the key lists (`Grid::row_blocks`, shared with the
+//! AVX-512 kernel). The test of a cover too long to be described is left out of cells that
+//! have none.
+//!
+//! The same cells, candidates and pairs come out in the same order: the three hashes of
+//! `grid_profile`, and `hair run wardlin --frames 60 --lod fine` gives `c636109a70c2ead7` with
+//! every kernel. Callgrind, one thread, half the difference of `pairs 3` and `pairs 1`: 440 M to
+//! 362 M instructions per search. `HAIR_GRID_KERNEL=avx2 grid_profile pairs 20` on an AVX-512
+//! machine, alternated with the binary before over three rounds: the fastest search took
+//! 18.0-18.3 ms against 20.0-20.2 ms.
+//!
+//! Measured and dropped:
+//! - **The blocks gathered in registers**, eight boxes loaded whole and transposed: 17.9-18.1
+//!   ms against 18.1-18.3 ms, no gain for the unsafe code.
+//! - **Every box hit sent to the hit loop**, without the lane-wise test of earlier cells: 21.8-22.0
+//!   ms.
+//! - **Reporting straight away in cells with no cell outside the window**, skipping the owner
+//!   test of each hit: 18.0-18.1 against 18.2-18.4 ms, within the noise.
 //!
 //! ### Where a rebuild's time goes
 //!

@@ -229,7 +229,6 @@ struct CellCols {
 struct CellView<'a> {
     cols: [&'a [f32]; 6],
     earlier: &'a [u64],
-    len: usize,
 }
 
 impl<'a> CellView<'a> {
@@ -237,7 +236,6 @@ impl<'a> CellView<'a> {
         Self {
             cols: [0, 1, 2, 3, 4, 5].map(|k| &cols.boxes[k][..len]),
             earlier: &cols.earlier[..len],
-            len,
         }
     }
 }
@@ -516,6 +514,11 @@ impl Grid {
             self.cell_pairs_wide(&cell, &mut chunk.blocks, pairs, cand, n_cand, report);
             return;
         }
+        #[cfg(target_arch = "x86_64")]
+        if AVX {
+            self.cell_pairs_avx2(&cell, &mut chunk.blocks, pairs, cand, n_cand, report);
+            return;
+        }
         let (ents, earlier) = (cell.ents, cell.earlier);
         // Gather the cell's sections into columns.
         if cols.skel.len() < m + PAD {
@@ -559,7 +562,7 @@ impl Grid {
             }
             let row = &mut cand[nc..nc + m];
             let end = cell.row_end(a);
-            let k = self.row::<AVX>(&cell, &view, cols, a, end, row);
+            let k = self.row(&cell, &view, cols, a, end, row);
             nc += k;
             if nc >= BATCH {
                 self.finish::<AVX, false>(&cand[..nc], pairs, report);
@@ -624,6 +627,53 @@ impl Grid {
         *n_cand = nc;
     }
 
+    /// [`Grid::cell_pairs`] with the AVX2 rows ([`row_avx2`]) on the cell in blocks of sixteen.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn cell_pairs_avx2(
+        &self,
+        cell: &CellEntries,
+        blocks: &mut Vec<Block16>,
+        pairs: &mut Vec<[u32; 2]>,
+        cand: &mut Vec<[u32; 2]>,
+        n_cand: &mut usize,
+        report: Report,
+    ) {
+        let m = cell.ents.len();
+        let n_blocks = m.div_ceil(16);
+        if blocks.len() < n_blocks {
+            blocks.resize(n_blocks, Block16::default());
+        }
+        let blocks = &mut blocks[..n_blocks];
+        let any = gather_blocks(&self.packed.boxes, cell.ents, cell.earlier, blocks);
+        // Whether a cover of this cell is too long to be described (rare).
+        let unknown = any & UNKNOWN != 0;
+        let blocks = &*blocks;
+        let skip = self.config.skip_neighbours;
+        let mut nc = *n_cand;
+        for a in 0..m - 1 {
+            let end = cell.row_end(a);
+            if end <= a + 1 {
+                continue;
+            }
+            if cand.len() < nc + m {
+                cand.resize(nc + m, [0; 2]);
+            }
+            let row = &mut cand[nc..nc + m];
+            // SAFETY: reached only from `Grid::task_avx2`, which runs only when `Kernel::best`
+            // found AVX2 on this processor.
+            #[allow(unsafe_code)]
+            let k = unsafe { row_avx2(blocks, end, a, skip, unknown, row) }
+                .unwrap_or_else(|| self.row_blocks(cell.key, blocks, end, a, row));
+            nc += k;
+            if nc >= BATCH {
+                self.finish::<true, false>(&cand[..nc], pairs, report);
+                nc = 0;
+            }
+        }
+        *n_cand = nc;
+    }
+
     /// Row `a` of a cell in blocks, one pair at a time with the key lists for an undecided
     /// owner: the wide kernel's fallback (written to the start of `row`; returns the count).
     #[cfg(target_arch = "x86_64")]
@@ -660,7 +710,7 @@ impl Grid {
     /// The candidates of row `a` of a cell (its pairs with the sections after it, up to `end`,
     /// that this cell reports), written to the start of `row`; returns their count.
     #[inline(always)]
-    fn row<const AVX: bool>(
+    fn row(
         &self,
         cell: &CellEntries,
         view: &CellView,
@@ -683,7 +733,7 @@ impl Grid {
         let n = end.saturating_sub(b0);
         for g in 0..n.div_ceil(64) {
             let start = b0 + 64 * g;
-            let mut bits = row_hits::<AVX>(view, head, start, (n - 64 * g).min(64));
+            let mut bits = row_hits_base(view, head, start, (n - 64 * g).min(64));
             // The neighbour and owner tests hit by hit, branch-free but for the rare undecided
             // owner. (The AVX2 kernel has already dropped the hits that share an earlier cell;
             // the whole test lane-wise took more instructions than it saved.)
@@ -999,20 +1049,6 @@ fn transpose8(r: [std::arch::x86_64::__m256; 8]) -> [std::arch::x86_64::__m256; 
     ]
 }
 
-/// Box tests of one row (`len <= 64` boxes from `start`): AVX2 inside [`Grid::task_avx2`], else
-/// SSE2 on x86-64 or portable code.
-#[inline(always)]
-#[allow(unsafe_code)]
-fn row_hits<const AVX2: bool>(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: `AVX2` is true only in code reached from `Grid::task_avx2`, which runs only
-        // when `has_avx2` found AVX2 on this processor.
-        return unsafe { row_hits_avx2(view, head, start, len) };
-    }
-    row_hits_base(view, head, start, len)
-}
-
 /// Box tests of one row: bit `k` is set when the box at `start + k` (`k < len <= 64`) overlaps
 /// the head's box.
 ///
@@ -1095,77 +1131,6 @@ fn row_hits_portable(view: &CellView, head: &RowHead, start: usize, len: usize) 
         }
         // Each byte is 0 or 1: the product gathers the eight low bits into the top byte.
         bits |= (u64::from_le_bytes(row).wrapping_mul(GATHER_BYTES) >> 56) << (8 * w);
-    }
-    bits
-}
-
-/// Box tests of one row with AVX2, eight boxes per compare (see [`row_hits_base`]), less the
-/// boxes whose pair this cell surely does not report: the two sections share an earlier cell
-/// inside the window ([`owner`] would drop them). In crowded cells of long sections most box
-/// hits are such repeats, and eight are ruled out here for the cost of one in the hit loop.
-/// What is kept is a superset of the reported pairs: the hit loop still decides each one.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-#[allow(unsafe_code)]
-fn row_hits_avx2(view: &CellView, head: &RowHead, start: usize, len: usize) -> u64 {
-    use std::arch::x86_64::{
-        __m256, __m256i, _CMP_LE_OQ, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_pd,
-        _mm256_cmp_ps, _mm256_cmpeq_epi64, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_movemask_pd,
-        _mm256_movemask_ps, _mm256_set1_epi64x, _mm256_set1_ps, _mm256_setzero_si256,
-    };
-    let octets = len.div_ceil(8);
-    // One check for all seven columns, which are `view.len` long.
-    assert!(start + 8 * octets <= view.len && view.earlier.len() == view.len);
-    let [lx, ly, lz, hx, hy, hz] = view.cols.map(|c| c.as_ptr());
-    let earlier = view.earlier.as_ptr();
-    let (lo, hi) = (head.lo, head.hi);
-    let (lo_x, lo_y, lo_z) = (
-        _mm256_set1_ps(lo[0]),
-        _mm256_set1_ps(lo[1]),
-        _mm256_set1_ps(lo[2]),
-    );
-    let (hi_x, hi_y, hi_z) = (
-        _mm256_set1_ps(hi[0]),
-        _mm256_set1_ps(hi[1]),
-        _mm256_set1_ps(hi[2]),
-    );
-    // A lane may be reported here when the sets share no window bit, or when either cover is
-    // too long to be described (then the key lists decide).
-    let shared_window = _mm256_set1_epi64x((head.earlier & WINDOW) as i64);
-    let unknown = _mm256_set1_epi64x(UNKNOWN as i64);
-    let zero = _mm256_setzero_si256();
-    let keep_all: u32 = if head.earlier & UNKNOWN != 0 { 0xff } else { 0 };
-    // Eight consecutive floats of a column, octet `q` of the row.
-    let octet = |c: *const f32, q: usize| -> __m256 {
-        // SAFETY: `q < octets`, so the eight floats end at most at `start + 8 * octets`, inside
-        // the column (asserted above).
-        unsafe { _mm256_loadu_ps(c.add(start + 8 * q)) }
-    };
-    // Four consecutive bit sets, half `h` of octet `q`.
-    let quad = |q: usize, h: usize| -> __m256i {
-        // SAFETY: as for `octet`: the four sets end at most at `start + 8 * octets`, inside the
-        // earlier-cell column, which is as long as the others (asserted above).
-        unsafe { _mm256_loadu_si256(earlier.add(start + 8 * q + 4 * h).cast()) }
-    };
-    let lanes = |m: __m256i| _mm256_movemask_pd(_mm256_castsi256_pd(m)) as u32;
-    let may_report = |q: usize, h: usize| -> u32 {
-        let b = quad(q, h);
-        let apart = lanes(_mm256_cmpeq_epi64(_mm256_and_si256(b, shared_window), zero));
-        let described = lanes(_mm256_cmpeq_epi64(_mm256_and_si256(b, unknown), zero));
-        apart | (!described & 0xf)
-    };
-    // Ordered comparisons: false for the NaN padding.
-    let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
-    // Last octet first, so that each step shifts by a constant.
-    let mut bits = 0u64;
-    for q in (0..octets).rev() {
-        let x = _mm256_and_ps(le(octet(lx, q), hi_x), le(lo_x, octet(hx, q)));
-        let y = _mm256_and_ps(le(octet(ly, q), hi_y), le(lo_y, octet(hy, q)));
-        let z = _mm256_and_ps(le(octet(lz, q), hi_z), le(lo_z, octet(hz, q)));
-        let hit = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(x, y), z)) as u32;
-        let keep = may_report(q, 0) | may_report(q, 1) << 4 | keep_all;
-        bits = (bits << 8) | u64::from(hit & keep);
     }
     bits
 }
@@ -1548,6 +1513,136 @@ fn row_avx512(
     Some(k)
 }
 
+/// The sections `ents` of a cell (with their earlier-cell bit sets) into blocks of sixteen,
+/// field by field; the lanes past the last section get NaN boxes, which fail every comparison.
+/// Returns the union of the bit sets.
+#[cfg(target_arch = "x86_64")]
+fn gather_blocks(boxes: &[PBox], ents: &[u32], earlier: &[u64], blocks: &mut [Block16]) -> u64 {
+    let mut any = 0;
+    for (blk, (ents, earlier)) in blocks
+        .iter_mut()
+        .zip(ents.chunks(16).zip(earlier.chunks(16)))
+    {
+        for (l, (&e, &bits)) in ents.iter().zip(earlier).enumerate() {
+            let b = &boxes[e as usize];
+            for k in 0..3 {
+                blk.lo[k][l] = b.lo[k];
+                blk.hi[k][l] = b.hi[k];
+            }
+            blk.skel[l] = b.skeleton;
+            blk.seg[l] = b.segment;
+            blk.ents[l] = e;
+            blk.earlier[l] = bits;
+            any |= bits;
+        }
+        for l in ents.len()..16 {
+            for k in 0..3 {
+                blk.lo[k][l] = f32::NAN;
+                blk.hi[k][l] = f32::NAN;
+            }
+        }
+    }
+    any
+}
+
+/// A row of a cell with AVX2, on the cell in blocks of sixteen ([`Grid::row`]'s result): the
+/// box tests eight lanes at a time, less the lanes whose pair an earlier cell surely reports
+/// (in crowded cells of long sections most box hits are such repeats: eight are ruled out for
+/// the cost of one in the hit loop), then the neighbour and owner tests hit by hit. Every field of a
+/// block sits at a fixed offset from one pointer, so the row keeps its registers (with a
+/// pointer per column they were spilled and reloaded at every row). `unknown` says that the
+/// cell holds a bit set with [`UNKNOWN`] (else that test is left out). A pair the bit sets
+/// cannot tell gives `None`, for [`Grid::row_blocks`] to do again with the key lists.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+#[allow(unsafe_code)]
+fn row_avx2(
+    blocks: &[Block16],
+    m: usize,
+    a: usize,
+    skip: u32,
+    unknown_cell: bool,
+    row: &mut [[u32; 2]],
+) -> Option<usize> {
+    use std::arch::x86_64::{
+        __m256, __m256i, _CMP_LE_OQ, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_pd,
+        _mm256_cmp_ps, _mm256_cmpeq_epi64, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_movemask_pd,
+        _mm256_movemask_ps, _mm256_set1_epi64x, _mm256_set1_ps, _mm256_setzero_si256,
+    };
+    // `row` has room for one pair per section after `a`.
+    assert!(a + 1 < m && blocks.len() >= m.div_ceil(16) && row.len() >= m - a - 1);
+    let (ba, la) = (&blocks[a / 16], a % 16);
+    let lo = [0, 1, 2].map(|k| _mm256_set1_ps(ba.lo[k][la]));
+    let hi = [0, 1, 2].map(|k| _mm256_set1_ps(ba.hi[k][la]));
+    let ea = ba.earlier[la];
+    let (skel_a, seg_a, ent_a) = (ba.skel[la], ba.seg[la], ba.ents[la]);
+    let shared_window = _mm256_set1_epi64x((ea & WINDOW) as i64);
+    let unknown = _mm256_set1_epi64x(UNKNOWN as i64);
+    let zero = _mm256_setzero_si256();
+    let keep_all: u32 = if ea & UNKNOWN != 0 { 0xffff } else { 0 };
+    let ps = |c: &[f32]| -> __m256 {
+        // SAFETY: called on halves of sixteen floats: eight.
+        unsafe { _mm256_loadu_ps(c.as_ptr()) }
+    };
+    let quad = |c: &[u64]| -> __m256i {
+        // SAFETY: called on quarters of sixteen 64-bit integers: four.
+        unsafe { _mm256_loadu_si256(c.as_ptr().cast()) }
+    };
+    let lanes4 = |v: __m256i| _mm256_movemask_pd(_mm256_castsi256_pd(v)) as u32;
+    let le = |a: __m256, b: __m256| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
+    let mut k = 0usize;
+    // The sections after `a`: the rest of its block, then the whole later blocks.
+    let mut lanes = 0xffffu32 << (la + 1);
+    for blk in &blocks[a / 16..m.div_ceil(16)] {
+        let mut hit = 0u32;
+        for h in 0..2 {
+            let r = 8 * h..8 * h + 8;
+            let x = _mm256_and_ps(
+                le(ps(&blk.lo[0][r.clone()]), hi[0]),
+                le(lo[0], ps(&blk.hi[0][r.clone()])),
+            );
+            let y = _mm256_and_ps(
+                le(ps(&blk.lo[1][r.clone()]), hi[1]),
+                le(lo[1], ps(&blk.hi[1][r.clone()])),
+            );
+            let z = _mm256_and_ps(
+                le(ps(&blk.lo[2][r.clone()]), hi[2]),
+                le(lo[2], ps(&blk.hi[2][r])),
+            );
+            let boxes = _mm256_movemask_ps(_mm256_and_ps(_mm256_and_ps(x, y), z)) as u32;
+            // May this cell report it: the sets share no window bit, or either cover is too
+            // long to be described.
+            let mut may = 0u32;
+            for q in 0..2 {
+                let e = quad(&blk.earlier[8 * h + 4 * q..8 * h + 4 * q + 4]);
+                let mut m4 = lanes4(_mm256_cmpeq_epi64(_mm256_and_si256(e, shared_window), zero));
+                if unknown_cell {
+                    let described = lanes4(_mm256_cmpeq_epi64(_mm256_and_si256(e, unknown), zero));
+                    m4 |= !described & 0xf;
+                }
+                may |= m4 << (4 * q);
+            }
+            hit |= (boxes & (may | keep_all)) << (8 * h);
+        }
+        let mut bits = hit & lanes;
+        lanes = 0xffff;
+        while bits != 0 {
+            let l = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let (here, unsure) = owner(ea, blk.earlier[l]);
+            let apart = (skel_a != blk.skel[l]) | (seg_a.abs_diff(blk.seg[l]) > skip);
+            if apart & unsure {
+                return None;
+            }
+            // Written ahead, kept by advancing `k`: no branch on the outcome.
+            row[k] = [ent_a, blk.ents[l]];
+            k += usize::from(apart & here);
+        }
+    }
+    Some(k)
+}
+
 /// Whether the processor supports AVX2 (checked once by the standard library, then cached).
 #[cfg(target_arch = "x86_64")]
 fn has_avx2() -> bool {
@@ -1695,69 +1790,83 @@ mod tests {
                         .map(|k| 1u64 << k)
                         .sum();
                     assert_eq!(row_hits_portable(&view, &head, start, len), expect);
-                    assert_eq!(row_hits::<false>(&view, &head, start, len), expect);
-                    #[cfg(target_arch = "x86_64")]
-                    if has_avx2() {
-                        #[allow(unsafe_code)]
-                        // SAFETY: AVX2 was found on this processor.
-                        let avx2 = unsafe { row_hits_avx2(&view, &head, start, len) };
-                        assert_eq!(avx2, expect);
-                    }
+                    assert_eq!(row_hits_base(&view, &head, start, len), expect);
                 }
             }
         }
     }
 
+    /// The AVX2 rows keep exactly the pairs of the row's rules, computed pair by pair: boxes
+    /// overlapping (on a coarse lattice, so that they often touch exactly), sections not
+    /// neighbours on one skeleton, and no earlier cell shared; a pair whose owner the bit sets
+    /// cannot tell (cells outside the window, covers too long to be described) gives `None`.
     #[test]
-    fn the_avx2_row_filter_keeps_every_pair_the_cell_may_report() {
+    fn the_avx2_rows_keep_what_the_pair_rules_keep() {
         #[cfg(target_arch = "x86_64")]
         if has_avx2() {
             let mut z = 5u64;
-            // Bit sets of a few window cells, with and without cells outside the window, and
-            // covers too long to be described.
-            let set = |z: &mut u64| -> u64 {
-                match (lcg(z) * 8.0) as u32 {
+            let set = |z: &mut u64, special: bool| -> u64 {
+                match (lcg(z) * if special { 8.0 } else { 4.0 }) as u32 {
                     0 => 0,
-                    1 => u64::MAX,
-                    2 => OUTSIDE,
-                    3 => OUTSIDE | 1 << (lcg(z) * 62.0) as u32,
+                    4 => u64::MAX,
+                    5 => OUTSIDE,
+                    6 => OUTSIDE | 1 << (lcg(z) * 62.0) as u32,
                     _ => (0..3).fold(0, |b, _| b | 1 << ((lcg(z) * 8.0) as u32 * 7)),
                 }
             };
-            for m in [2usize, 9, 64, 130] {
-                let mut cols = cell_cols(m);
-                // Every box overlaps every other: the filter alone decides.
-                for e in 0..m {
-                    for k in 0..3 {
-                        cols.boxes[k][e] = 0.0;
-                        cols.boxes[k + 3][e] = 1.0;
+            let (mut decided, mut undecided) = (0, 0);
+            for special in [false, true] {
+                for m in [2usize, 9, 16, 17, 64, 130] {
+                    let mut blocks = vec![Block16::default(); m.div_ceil(16)];
+                    let (mut boxes, mut ents, mut earlier) = (Vec::new(), Vec::new(), Vec::new());
+                    for e in 0..m {
+                        let lo = [0; 3].map(|_| (lcg(&mut z) * 4.0).floor() / 4.0);
+                        let hi = lo.map(|v| v + (lcg(&mut z) * 3.0).floor() / 4.0);
+                        let (skeleton, segment) =
+                            ((lcg(&mut z) * 3.0) as u32, (lcg(&mut z) * 4.0) as u32);
+                        boxes.push(PBox {
+                            lo,
+                            hi,
+                            skeleton,
+                            segment,
+                        });
+                        ents.push(e as u32);
+                        earlier.push(set(&mut z, special));
                     }
-                    cols.earlier[e] = set(&mut z);
-                }
-                let view = CellView::new(&cols, m + PAD);
-                for a in 0..m - 1 {
-                    let head = RowHead {
-                        lo: [0.0; 3],
-                        hi: [1.0; 3],
-                        earlier: cols.earlier[a],
-                    };
-                    let n = m - a - 1;
-                    for g in 0..n.div_ceil(64) {
-                        let (start, len) = (a + 1 + 64 * g, (n - 64 * g).min(64));
-                        #[allow(unsafe_code)]
-                        // SAFETY: AVX2 was found on this processor.
-                        let kept = unsafe { row_hits_avx2(&view, &head, start, len) };
-                        for k in 0..len {
-                            let (here, unsure) = owner(head.earlier, cols.earlier[start + k]);
-                            if here || unsure {
-                                assert_ne!(kept >> k & 1, 0, "a {a} b {}", start + k);
+                    let any = gather_blocks(&boxes, &ents, &earlier, &mut blocks);
+                    assert_eq!(any, earlier.iter().fold(0, |a, b| a | b));
+                    let mut row = vec![[0u32; 2]; m];
+                    for a in 0..m - 1 {
+                        let mut expect = Vec::new();
+                        let mut unsure_any = false;
+                        for b in a + 1..m {
+                            let (pa, pb) = (&boxes[a], &boxes[b]);
+                            let overlap =
+                                (0..3).all(|k| pb.lo[k] <= pa.hi[k] && pa.lo[k] <= pb.hi[k]);
+                            let apart =
+                                pa.skeleton != pb.skeleton || pa.segment.abs_diff(pb.segment) > 1;
+                            let (here, unsure) = owner(earlier[a], earlier[b]);
+                            unsure_any |= overlap && apart && unsure;
+                            if overlap && apart && here {
+                                expect.push([a as u32, b as u32]);
                             }
                         }
-                        // Nothing past the row (the padding's boxes are NaN).
-                        assert_eq!(kept.checked_shr(len as u32).unwrap_or(0), 0);
+                        #[allow(unsafe_code)]
+                        // SAFETY: AVX2 was found on this processor.
+                        let got =
+                            unsafe { row_avx2(&blocks, m, a, 1, any & UNKNOWN != 0, &mut row) };
+                        if unsure_any {
+                            assert_eq!(got, None, "m {m} a {a}");
+                            undecided += 1;
+                        } else {
+                            let k = got.expect("decided by the bit sets");
+                            assert_eq!(&row[..k], &expect[..], "m {m} a {a}");
+                            decided += 1;
+                        }
                     }
                 }
             }
+            assert!(decided > 100 && undecided > 10, "{decided} {undecided}");
         }
     }
 
