@@ -81,7 +81,7 @@ struct PairChunk {
     /// unpredictably).
     cand: Vec<[u32; 2]>,
     n_cand: usize,
-    /// The sections of the current cell in blocks of sixteen (the AVX-512 kernel's layout).
+    /// The sections of the current cell in blocks of sixteen (the AVX-512 and AVX2 kernels).
     blocks: Vec<Block16>,
     /// A crowded cell's entries in sweep order.
     sweep: Sweep,
@@ -182,10 +182,11 @@ fn ordered_bits(v: f32) -> u32 {
     if b >> 31 == 1 { !b } else { b | 1 << 31 }
 }
 
-/// Sixteen sections of a cell, each field one AVX-512 register: the wide kernel's layout. Every
-/// column of a block sits at a fixed offset from one pointer, so that the row loop keeps its
-/// registers for the tests (with a pointer per column they were spilled and reloaded in the
-/// loop). Lanes past the cell's last section have NaN boxes, which fail every comparison.
+/// Sixteen sections of a cell, each field one AVX-512 register (two AVX2 ones): the layout of
+/// the AVX-512 and AVX2 kernels. Every column of a block sits at a fixed offset from one
+/// pointer, so that the row loop keeps its registers for the tests (with a pointer per column
+/// they were spilled and reloaded in the loop). Lanes past the cell's last section have NaN
+/// boxes, which fail every comparison.
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(64))]
 struct Block16 {
