@@ -511,13 +511,8 @@ impl Grid {
             sweep,
         };
         #[cfg(target_arch = "x86_64")]
-        if WIDE {
-            self.cell_pairs_wide(&cell, &mut chunk.blocks, pairs, cand, n_cand, report);
-            return;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if AVX {
-            self.cell_pairs_avx2(&cell, &mut chunk.blocks, pairs, cand, n_cand, report);
+        if AVX || WIDE {
+            self.cell_pairs_blocks::<WIDE>(&cell, &mut chunk.blocks, pairs, cand, n_cand, report);
             return;
         }
         let (ents, earlier) = (cell.ents, cell.earlier);
@@ -573,11 +568,11 @@ impl Grid {
         *n_cand = nc;
     }
 
-    /// [`Grid::cell_pairs`] with the AVX-512 rows ([`row_avx512`]) on the cell in blocks of
-    /// sixteen.
+    /// [`Grid::cell_pairs`] on the cell in blocks of sixteen: the AVX-512 rows ([`row_avx512`])
+    /// when `WIDE`, else the AVX2 ones ([`row_avx2`]).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn cell_pairs_wide(
+    fn cell_pairs_blocks<const WIDE: bool>(
         &self,
         cell: &CellEntries,
         blocks: &mut Vec<Block16>,
@@ -586,21 +581,29 @@ impl Grid {
         n_cand: &mut usize,
         report: Report,
     ) {
-        let pk = &self.packed;
         let m = cell.ents.len();
         let n_blocks = m.div_ceil(16);
         if blocks.len() < n_blocks {
             blocks.resize(n_blocks, Block16::default());
         }
         let blocks = &mut blocks[..n_blocks];
-        // SAFETY: reached only from `Grid::task_avx512`, which runs only when `Kernel::best`
-        // found AVX-512F on this processor.
-        #[allow(unsafe_code)]
-        let any = unsafe { gather_avx512(&pk.boxes, cell.ents, cell.earlier, blocks) };
+        let (boxes, ents, earlier) = (&self.packed.boxes, cell.ents, cell.earlier);
+        let any = if WIDE {
+            // SAFETY: `WIDE` is true only in code reached from `Grid::task_avx512`, which runs
+            // only when `Kernel::best` found AVX-512F on this processor.
+            #[allow(unsafe_code)]
+            unsafe {
+                gather_avx512(boxes, ents, earlier, blocks)
+            }
+        } else {
+            gather_blocks(boxes, ents, earlier, blocks)
+        };
         let blocks = &*blocks;
         // Whether an owner test of this cell may be left undecided by the bit sets (both share
         // only `OUTSIDE`, or one is `UNKNOWN`): only with such bits in the cell.
         let special = any & (OUTSIDE | UNKNOWN) != 0;
+        // Whether a cover of this cell is too long to be described (rare).
+        let unknown = any & UNKNOWN != 0;
         let skip = self.config.skip_neighbours;
         let mut nc = *n_cand;
         for a in 0..m - 1 {
@@ -609,66 +612,24 @@ impl Grid {
                 continue;
             }
             // Room for this row's candidates (at most one per box after `a`) and for the
-            // sixteen pairs the kernel writes past its last kept one.
+            // sixteen pairs the AVX-512 kernel writes past its last kept one.
             if cand.len() < nc + m + 16 {
                 cand.resize(nc + m + 16, [0; 2]);
             }
             let row = &mut cand[nc..nc + m + 16];
-            // SAFETY: reached only from `Grid::task_avx512`, which runs only when
-            // `Kernel::best` found AVX-512F, POPCNT and BMI1 on this processor.
+            // SAFETY: reached only from `Grid::task_avx512` (`WIDE`), which runs only when
+            // `Kernel::best` found AVX-512F, POPCNT and BMI1 on this processor, or from
+            // `Grid::task_avx2`, which runs only when it found AVX2.
             #[allow(unsafe_code)]
-            let k = unsafe { row_avx512(blocks, end, a, skip, special, row) }
-                .unwrap_or_else(|| self.row_blocks(cell.key, blocks, end, a, row));
+            let k = if WIDE {
+                unsafe { row_avx512(blocks, end, a, skip, special, row) }
+            } else {
+                unsafe { row_avx2(blocks, end, a, skip, unknown, row) }
+            }
+            .unwrap_or_else(|| self.row_blocks(cell.key, blocks, end, a, row));
             nc += k;
             if nc >= BATCH {
-                self.finish::<true, true>(&cand[..nc], pairs, report);
-                nc = 0;
-            }
-        }
-        *n_cand = nc;
-    }
-
-    /// [`Grid::cell_pairs`] with the AVX2 rows ([`row_avx2`]) on the cell in blocks of sixteen.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn cell_pairs_avx2(
-        &self,
-        cell: &CellEntries,
-        blocks: &mut Vec<Block16>,
-        pairs: &mut Vec<[u32; 2]>,
-        cand: &mut Vec<[u32; 2]>,
-        n_cand: &mut usize,
-        report: Report,
-    ) {
-        let m = cell.ents.len();
-        let n_blocks = m.div_ceil(16);
-        if blocks.len() < n_blocks {
-            blocks.resize(n_blocks, Block16::default());
-        }
-        let blocks = &mut blocks[..n_blocks];
-        let any = gather_blocks(&self.packed.boxes, cell.ents, cell.earlier, blocks);
-        // Whether a cover of this cell is too long to be described (rare).
-        let unknown = any & UNKNOWN != 0;
-        let blocks = &*blocks;
-        let skip = self.config.skip_neighbours;
-        let mut nc = *n_cand;
-        for a in 0..m - 1 {
-            let end = cell.row_end(a);
-            if end <= a + 1 {
-                continue;
-            }
-            if cand.len() < nc + m {
-                cand.resize(nc + m, [0; 2]);
-            }
-            let row = &mut cand[nc..nc + m];
-            // SAFETY: reached only from `Grid::task_avx2`, which runs only when `Kernel::best`
-            // found AVX2 on this processor.
-            #[allow(unsafe_code)]
-            let k = unsafe { row_avx2(blocks, end, a, skip, unknown, row) }
-                .unwrap_or_else(|| self.row_blocks(cell.key, blocks, end, a, row));
-            nc += k;
-            if nc >= BATCH {
-                self.finish::<true, false>(&cand[..nc], pairs, report);
+                self.finish::<true, WIDE>(&cand[..nc], pairs, report);
                 nc = 0;
             }
         }
