@@ -697,8 +697,7 @@ impl Grid {
             let start = b0 + 64 * g;
             let mut bits = row_hits_base(view, head, start, (n - 64 * g).min(64));
             // The neighbour and owner tests hit by hit, branch-free but for the rare undecided
-            // owner. (The AVX2 kernel has already dropped the hits that share an earlier cell;
-            // the whole test lane-wise took more instructions than it saved.)
+            // owner.
             while bits != 0 {
                 let b = start + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
@@ -1510,11 +1509,12 @@ fn gather_blocks(boxes: &[PBox], ents: &[u32], earlier: &[u64], blocks: &mut [Bl
 /// A row of a cell with AVX2, on the cell in blocks of sixteen ([`Grid::row`]'s result): the
 /// box tests eight lanes at a time, less the lanes whose pair an earlier cell surely reports
 /// (in crowded cells of long sections most box hits are such repeats: eight are ruled out for
-/// the cost of one in the hit loop), then the neighbour and owner tests hit by hit. Every field of a
-/// block sits at a fixed offset from one pointer, so the row keeps its registers (with a
-/// pointer per column they were spilled and reloaded at every row). `unknown` says that the
-/// cell holds a bit set with [`UNKNOWN`] (else that test is left out). A pair the bit sets
-/// cannot tell gives `None`, for [`Grid::row_blocks`] to do again with the key lists.
+/// the cost of one in the hit loop), then the neighbour and owner tests hit by hit (lane-wise,
+/// without a compress, they took more instructions than they saved). Every field of a block
+/// sits at a fixed offset from one pointer, so the row keeps its registers (with a pointer per
+/// column they were spilled and reloaded at every row). `unknown_cell` says that the cell holds
+/// a bit set with [`UNKNOWN`] (else that test is left out). A pair the bit sets cannot tell
+/// gives `None`, for [`Grid::row_blocks`] to do again with the key lists.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
