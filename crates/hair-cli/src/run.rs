@@ -64,6 +64,14 @@ pub struct Summary {
     pub pair_search_interval: u32,
     /// Mean milliseconds per frame.
     pub ms_per_frame: f64,
+    /// Median milliseconds per frame: the mean counts the first frames, which fill the body's
+    /// distance field where the hair first reaches (up to several times a later frame's time),
+    /// the median hardly does.
+    pub ms_frame_p50: f64,
+    /// 95th percentile of the frames' milliseconds (nearest rank).
+    pub ms_frame_p95: f64,
+    /// The slowest frame's milliseconds.
+    pub ms_frame_max: f64,
     /// Mean milliseconds per frame in each stage.
     pub ms_per_stage: Stages,
     /// Skeletons simulated at the end.
@@ -105,6 +113,28 @@ pub struct Stages {
     pub hair_object: f64,
     /// Render geometry.
     pub render_geometry: f64,
+}
+
+/// Frame times in milliseconds, sorted, for their percentiles.
+struct FrameTimes(Vec<f64>);
+
+impl FrameTimes {
+    fn new(ms: impl Iterator<Item = f64>) -> Self {
+        let mut v: Vec<f64> = ms.collect();
+        v.sort_by(f64::total_cmp);
+        Self(v)
+    }
+
+    /// The `p`th percentile by nearest rank (the smallest time that at least `p` percent of
+    /// the frames do not exceed; 100 gives the slowest frame); 0 with no frames.
+    fn percentile(&self, p: u32) -> f64 {
+        let n = self.0.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let rank = (p.min(100) as usize * n).div_ceil(100).max(1);
+        self.0[rank - 1]
+    }
 }
 
 /// Runs a scene and returns its summary and per-frame metrics, without writing anything.
@@ -189,6 +219,7 @@ pub fn simulate(
         if let Some(b) = bar {
             b.finish_and_clear();
         }
+        let frame_ms = FrameTimes::new(metrics.iter().map(|m| m.ms_frame));
         let f = f64::from(frames.max(1));
         for v in [
             &mut stages.drivers,
@@ -209,6 +240,9 @@ pub fn simulate(
             substeps,
             pair_search_interval: loaded.scene.collision.pair_search_interval,
             ms_per_frame: total_ms / f,
+            ms_frame_p50: frame_ms.percentile(50),
+            ms_frame_p95: frame_ms.percentile(95),
+            ms_frame_max: frame_ms.percentile(100),
             ms_per_stage: stages,
             skeletons: sim.front_nodes().len(),
             strands: sim.render_geometry().strand_count(),
@@ -344,7 +378,29 @@ mod tests {
             let (summary, metrics, _) = simulate(&args, false, &mut |_, _| Ok(())).unwrap();
             assert_eq!(summary.pair_search_interval, interval);
             assert_eq!(metrics.len(), 4);
+            // Four frames: the median is the second fastest, the 95th percentile the slowest.
+            let mut ms: Vec<f64> = metrics.iter().map(|m| m.ms_frame).collect();
+            ms.sort_by(f64::total_cmp);
+            assert_eq!(summary.ms_frame_p50, ms[1]);
+            assert_eq!(summary.ms_frame_p95, ms[3]);
+            assert_eq!(summary.ms_frame_max, ms[3]);
+            assert!(summary.ms_frame_max >= summary.ms_per_frame);
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn frame_percentiles_are_by_nearest_rank() {
+        let times =
+            FrameTimes::new([5.0, 1.0, 4.0, 2.0, 3.0, 10.0, 6.0, 9.0, 8.0, 7.0].into_iter());
+        assert_eq!(times.percentile(50), 5.0);
+        assert_eq!(times.percentile(95), 10.0);
+        assert_eq!(times.percentile(90), 9.0);
+        assert_eq!(times.percentile(10), 1.0);
+        assert_eq!(times.percentile(0), 1.0);
+        assert_eq!(times.percentile(100), 10.0);
+        assert_eq!(FrameTimes::new(std::iter::empty()).percentile(50), 0.0);
+        let twenty = FrameTimes::new((1..=20).map(f64::from));
+        assert_eq!(twenty.percentile(95), 19.0);
     }
 }
