@@ -374,6 +374,41 @@ impl DistanceField {
         Some((d, n))
     }
 
+    /// Computes now, in parallel, every sample not yet known whose signed distance may lie
+    /// within `[-inside, outside]` by the near field's bound, so that the steps that later
+    /// query there find it known; returns how many it computed. The values are those a query
+    /// would have computed (each sample is a pure function of the mesh), so a simulation gives
+    /// the same results with or without it: the exact queries only move from the first frames
+    /// that reach each place to this call.
+    pub fn fill_band(&self, body: &BodyModel, inside: Real, outside: Real) -> usize {
+        use rayon::prelude::*;
+        let [nx, ny, nz] = self.dims;
+        (0..nz)
+            .into_par_iter()
+            .map(|z| {
+                let mut filled = 0;
+                for y in 0..ny {
+                    for x in 0..nx {
+                        let slot = self.slot(x, y, z);
+                        if slot.load(Ordering::Relaxed) != UNKNOWN {
+                            continue;
+                        }
+                        let c = self.min + Vector::new(x as Real, y as Real, z as Real) * self.h;
+                        let Some((low, high)) = body.near.bounds(&c) else {
+                            continue;
+                        };
+                        if high < -inside || low > outside {
+                            continue;
+                        }
+                        self.sample(body, x, y, z);
+                        filled += 1;
+                    }
+                }
+                filled
+            })
+            .sum()
+    }
+
     /// Largest difference between the field and the exact signed distance over `count`
     /// deterministic points within `band` of the body's surface vertices (m).
     pub fn measure_error(&self, body: &BodyModel, count: usize, band: Real) -> Real {
@@ -602,6 +637,17 @@ impl NearField {
             Some((k, c)) => self.centre[k] - (p - c).norm(),
             None => Real::INFINITY,
         }
+    }
+
+    /// Lower and upper bounds of the exact signed distance at `p` (its cell centre's distance
+    /// less and plus how far `p` is from that centre); `None` outside the grid or where the
+    /// centre has no distance (or no grid was built).
+    #[inline]
+    pub fn bounds(&self, p: &Point) -> Option<(Real, Real)> {
+        let (k, c) = self.cell_of(p)?;
+        let d = *self.centre.get(k)?;
+        let r = (p - c).norm();
+        d.is_finite().then_some((d - r, d + r))
     }
 
     /// Whether `p` may lie within the margin of the body (or inside it).
@@ -892,6 +938,54 @@ mod tests {
             }
             inside += usize::from(deep);
             outside += usize::from(clear);
+        }
+    }
+
+    /// Filling a band ahead computes exactly the samples a lazy field would compute there, and
+    /// only in the band: every query then answers as on a field filled lazily.
+    #[test]
+    fn a_band_filled_ahead_holds_the_lazy_samples() {
+        let (head, torus) = closed_test_bodies();
+        for (body, samples) in [(&head, 20_000), (&torus, 3_001)] {
+            let ahead = DistanceField::new(&body.vertices, 2.0 * NEAR_MARGIN, samples);
+            let lazy = ahead.clone();
+            let (inside, outside) = (0.004, 0.01);
+            let n = ahead.fill_band(body, inside, outside);
+            assert!(n > 0, "nothing filled");
+            assert_eq!(ahead.filled(), n);
+            assert!(n < ahead.samples.len() * 16 / 2, "{n} samples: not a band");
+            // A second call finds them all known.
+            assert_eq!(ahead.fill_band(body, inside, outside), 0);
+            let [nx, ny, nz] = ahead.dims;
+            let mut checked = 0;
+            for z in 0..nz {
+                for y in 0..ny {
+                    for x in 0..nx {
+                        let bits = ahead.slot(x, y, z).load(Ordering::Relaxed);
+                        let c = ahead.min + Vector::new(x as Real, y as Real, z as Real) * ahead.h;
+                        let exact = body.signed_distance(&c).map(|(d, _, _)| d);
+                        if bits == UNKNOWN {
+                            // Left out only where the exact distance is outside the band.
+                            if let Some(d) = exact {
+                                assert!(d < -inside || d > outside, "{c:?} at {d} left out");
+                            }
+                            continue;
+                        }
+                        assert_eq!(bits, lazy.sample(body, x, y, z).to_bits(), "{c:?}");
+                        checked += 1;
+                    }
+                }
+            }
+            assert_eq!(checked, n);
+            // Queries near the surface give the same bits either way.
+            for (k, v) in body.vertices.iter().enumerate().step_by(7) {
+                let p = v + Vector::new(0.003, -0.002, 0.001) * ((k % 3) as Real - 1.0);
+                let (a, b) = (ahead.query(body, &p), lazy.query(body, &p));
+                assert_eq!(
+                    a.map(|(d, n)| (d.to_bits(), n.map(Real::to_bits))),
+                    b.map(|(d, n)| (d.to_bits(), n.map(Real::to_bits))),
+                );
+            }
         }
     }
 

@@ -48,4 +48,4 @@ pub use salon::{
     ToolScript,
 };
 pub use scene::{LoadedScene, LodPolicy, Scene};
-pub use simulation::{Simulation, StepStats};
+pub use simulation::{PREFILL_INSIDE, Simulation, StepStats};

@@ -431,6 +431,24 @@ impl Simulation {
         &self.grid
     }
 
+    /// Computes ahead the samples of the body's distance field that hair near the surface
+    /// reads (`DistanceField::fill_band` on [`BodyModel::field`]): from [`PREFILL_INSIDE`] inside
+    /// the surface to the near field's margin outside. The steps otherwise compute each the
+    /// first time hair reaches it. Returns how many it computed. For interactive use: it moves
+    /// the exact queries out of the first frames, which otherwise run slow (on `wardlin`, about
+    /// 770,000 samples in 0.45-0.7 s here; the first frame's hair-object stage then takes
+    /// 1.5 ms instead of 23 ms). The results are the same with or without it.
+    pub fn prefill_body_field(&self) -> usize {
+        let Some(body) = self.body.as_ref() else {
+            return 0;
+        };
+        // Outside, as far as a node is ever queried (the near field's margin); inside, as deep
+        // as hair that starts in the body reaches, by and large (deeper samples still come
+        // when first read).
+        body.field
+            .fill_band(body, PREFILL_INSIDE, crate::body::NEAR_MARGIN)
+    }
+
     /// The body, if any.
     pub fn body(&self) -> Option<&BodyModel> {
         self.body.as_ref()
@@ -1504,6 +1522,8 @@ const TURN_OUT_STEPS: usize = 8;
 
 /// Detect-and-correct passes of the hard body constraint per step (a final detection follows).
 pub const BODY_PASSES: usize = 8;
+/// How deep inside the body [`Simulation::prefill_body_field`] computes samples (m).
+pub const PREFILL_INSIDE: Real = 0.01;
 
 /// Depth, as a fraction of the scene's penetration tolerance, below which a node in contact with
 /// the body is not moved (its approach is still removed).

@@ -142,7 +142,10 @@ pub fn run(args: Args) -> Result<()> {
             .build_global()
             .context("setting the worker threads")?;
     }
-    let session = session::Session::new(loaded, policy)?;
+    let mut session = session::Session::new(loaded, policy)?;
+    // Interactive: the body's distance field is computed before the first frame, so that the
+    // first seconds do not stutter while the hair first reaches each part of the body.
+    session.prefill_body_field();
     let opts = ExitOptions {
         frames: args.frames,
         screenshot: args.screenshot,

@@ -82,6 +82,8 @@ pub struct Session {
     frames: u32,
     stage_sum: StageMs,
     last: StepStats,
+    /// Whether every new simulation (a reset, a replay) fills its body's distance field ahead.
+    prefill: bool,
 }
 
 impl Session {
@@ -108,7 +110,16 @@ impl Session {
             frames: 0,
             stage_sum: StageMs::default(),
             last: StepStats::default(),
+            prefill: false,
         })
+    }
+
+    /// Fills the body's distance field ahead (`Simulation::prefill_body_field`), now and after
+    /// every reset: the first frames then run at the pace of the later ones. Returns the
+    /// samples computed now.
+    pub fn prefill_body_field(&mut self) -> usize {
+        self.prefill = true;
+        self.sim.prefill_body_field()
     }
 
     /// The simulation.
@@ -282,6 +293,9 @@ impl Session {
             ..self.loaded.clone()
         };
         self.sim = Simulation::new(&loaded, self.policy)?;
+        if self.prefill {
+            self.sim.prefill_body_field();
+        }
         self.pending.clear();
         self.pending_view = None;
         self.frames = 0;
