@@ -175,13 +175,13 @@ pub fn simulate(
         .build()?;
     pool.install(|| {
         let mut sim = Simulation::new(&loaded, policy)?;
-        let t = std::time::Instant::now();
-        let prefilled_samples = if args.prefill_field {
-            sim.prefill_body_field()
+        let (prefilled_samples, prefill_ms) = if args.prefill_field {
+            let t = std::time::Instant::now();
+            let n = sim.prefill_body_field();
+            (n, t.elapsed().as_secs_f64() * 1e3)
         } else {
-            0
+            (0, 0.0)
         };
-        let prefill_ms = t.elapsed().as_secs_f64() * 1e3;
         let substeps = loaded.scene.substeps;
         let ramp = u64::from(loaded.scene.collision.depenetration_steps);
         let bar = progress.then(|| {
@@ -260,7 +260,7 @@ pub fn simulate(
             ms_frame_p50: frame_ms.percentile(50),
             ms_frame_p95: frame_ms.percentile(95),
             ms_frame_max: frame_ms.percentile(100),
-            prefill_ms: if args.prefill_field { prefill_ms } else { 0.0 },
+            prefill_ms,
             prefilled_samples,
             ms_per_stage: stages,
             skeletons: sim.front_nodes().len(),
