@@ -145,7 +145,7 @@ pub struct AdaptiveSpec {
     pub speed_finest: f32,
     /// Children within this distance of their parent merge (m).
     pub merge_distance: f32,
-    /// Whether hair hidden from the camera (behind the head or outside the view) collapses.
+    /// Whether hair hidden from the camera (behind the body or outside the view) collapses.
     pub cull_hidden: bool,
 }
 

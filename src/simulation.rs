@@ -4,7 +4,7 @@
 //! The hard constraint runs after integration rather than before it, so the state handed to the
 //! renderer and to the next step is never inside the body by more than the stated tolerance.
 
-use crate::adaptive::{AdaptiveLod, View};
+use crate::adaptive::{AdaptiveLod, BodyDepth, View};
 use crate::body::BodyModel;
 use crate::render_geometry::{
     RenderGeometry, catmull_rom_into, transport_frames, transport_frames_into,
@@ -142,6 +142,9 @@ pub struct Simulation {
     points_per_strand: usize,
     adaptive: Option<AdaptiveLod>,
     last_lod: TransitionReport,
+    /// The body's depth from the camera, for the adaptive policy's visibility (drawn again only
+    /// when the view in the head frame changes).
+    body_depth: BodyDepth,
     initial_adaptive: Option<AdaptiveLod>,
     teleport: Isometry3<Real>,
     accumulator: f64,
@@ -310,6 +313,7 @@ impl Simulation {
             render_scratch: Vec::new(),
             adaptive: None,
             last_lod: TransitionReport::default(),
+            body_depth: BodyDepth::new(),
             initial_adaptive: None,
             teleport: Isometry3::identity(),
             accumulator: 0.0,
@@ -532,11 +536,16 @@ impl Simulation {
 
     /// Which of `points` (world coordinates, as [`Simulation::render_geometry`] gives them) the
     /// camera sees now, by the test the `adaptive` policy selects with: inside the view cone
-    /// and, on the procedural head, not behind the head. Written to `out`, one flag per point.
+    /// and not behind the body ([`BodyDepth`]). Written to `out`, one flag per point.
     /// As for that policy, the camera keeps its place relative to the scene's head path, so a
     /// teleport carries what it sees along with the head.
     pub fn seen_by_camera(&self, points: &[Point], out: &mut Vec<bool>) {
-        let view = self.view(self.time);
+        let mut view = self.view(self.time);
+        let mut depth = BodyDepth::new();
+        if let Some(body) = &self.body {
+            depth.build(body, &view);
+            view.occluder = Some(&depth);
+        }
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
         // The inverse of the render geometry's head-to-world transform.
         let to_head = (self.teleport.rotation.to_rotation_matrix() * head.rotation).inverse();
@@ -661,7 +670,8 @@ impl Simulation {
     }
 
     /// The camera's view in the head frame at time `t`.
-    fn view(&self, t: Real) -> View {
+    /// The camera's view cone at time `t` in the head frame, with no occluder yet.
+    fn view(&self, t: Real) -> View<'static> {
         let head = drivers::head_motion(&self.scene.head_motion, t);
         let (eye, target) = drivers::camera(&self.scene.camera, t);
         let to_head = |p: Point| Point::from(head.rotation.inverse() * (p - head.position));
@@ -672,18 +682,11 @@ impl Simulation {
         // The cone around the whole image at a 3:2 aspect ratio, with a little margin.
         let tan_v = (0.5 * self.scene.camera.fov_degrees.to_radians()).tan();
         let half = (tan_v * (1.0 + 1.5f32 * 1.5).sqrt()).atan() * 1.1;
-        let occluder = match self.scene.body {
-            crate::scene::BodySpec::Head { .. } => {
-                let (c, axes) = hair_ssv::test_meshes::HEAD;
-                Some((Point::from(c), Vector::from(axes) * 0.9))
-            }
-            _ => None,
-        };
         View {
             eye,
             forward,
             cos_half_angle: half.min(std::f32::consts::FRAC_PI_2).cos(),
-            occluder,
+            occluder: None,
         }
     }
 
@@ -725,7 +728,11 @@ impl Simulation {
 
         // 2. LOD: fixed fronts change nothing; the adaptive one is re-selected.
         if let Some(mut lod) = self.adaptive.take() {
-            let view = self.view(self.time);
+            let mut view = self.view(self.time);
+            if let (Some(body), true) = (&self.body, self.scene.adaptive.cull_hidden) {
+                self.body_depth.build(body, &view);
+                view.occluder = Some(&self.body_depth);
+            }
             let result = lod.update(
                 &self.hierarchy,
                 &mut self.state,
