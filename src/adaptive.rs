@@ -68,7 +68,10 @@ pub const HIDDEN_BEHIND: Real = 0.01;
 ///
 /// In the head frame the body does not move, so the image changes only with the view:
 /// [`BodyDepth::build`] keeps it when the view is the same to the bit, and a stationary camera
-/// draws the body once.
+/// draws the body once. A moving one draws it every step, on one thread: about 1.4 ms for the
+/// procedural head's 53,000 triangles (the first step of `hair run wardlin --lod adaptive`,
+/// `ms_lod` 2.2 ms against 0.8 on the next). Eight bands of rows drawn in parallel, each its
+/// part of every triangle, took 6.8 ms there.
 #[derive(Clone, Debug, Default)]
 pub struct BodyDepth {
     /// The view the image was drawn for: eye, forward and cone cosine, by their bits.
