@@ -360,6 +360,13 @@ impl AdaptiveLod {
         &self.lod
     }
 
+    /// How many trees are collapsed to their root strip because the camera cannot see them.
+    pub fn hidden_trees(&self, h: &Hierarchy) -> usize {
+        (0..h.tree_count() as u32)
+            .filter(|&t| self.front.is_hidden(t))
+            .count()
+    }
+
     /// Whether the tree of `node` is collapsed because the camera cannot see it.
     pub fn is_hidden(&self, h: &Hierarchy, node: u32) -> bool {
         self.front.is_hidden(h.tree_of(node))

@@ -52,6 +52,9 @@ pub struct StepStats {
     pub lod_splits: u32,
     /// Merges the adaptive LOD made this step.
     pub lod_merges: u32,
+    /// Trees the adaptive LOD holds at their root strip because the camera does not see them
+    /// (behind the body or outside the view).
+    pub lod_hidden_trees: usize,
     /// Skeletons integrated this step.
     pub active: usize,
     /// Skeletons frozen by localization.
@@ -750,6 +753,10 @@ impl Simulation {
         if self.adaptive.is_some() {
             stats.lod_splits = self.last_lod.splits;
             stats.lod_merges = self.last_lod.merges;
+            stats.lod_hidden_trees = self
+                .adaptive
+                .as_ref()
+                .map_or(0, |lod| lod.hidden_trees(&self.hierarchy));
         }
 
         // 3. Grid over the front's segments (head frame, where the body is static).
