@@ -654,7 +654,7 @@ impl ViewApp {
             "{:.0} fps  render {:.1} ms  sim frame {:.1} ms{}\n\
              step ms: grid {:.2}  lod {:.2}  hair-hair {:.2}  dynamics {:.2} (salon {:.2})  body {:.2}  geometry {:.2}\n\
              frame {}  t = {:.2} s  speed x{}{}\n\
-             skeletons {}: active {}  dormant {}   LOD strips {}  clusters {}  strand groups {}\n\
+             skeletons {}: active {}  dormant {}   LOD strips {}  clusters {}  strand groups {}  hidden trees {}\n\
              water {:.2} g  bonds {}  cuts {}  fallen {}  grabbed {}  events {}",
             fps,
             self.render_ms.value,
@@ -680,6 +680,7 @@ impl ViewApp {
             lod.strips,
             lod.clusters,
             lod.strand_groups,
+            last.lod_hidden_trees,
             salon.water_kg * 1e3,
             salon.bonds,
             salon.cuts,
