@@ -550,7 +550,8 @@ impl Simulation {
     /// teleport carries what it sees along with the head.
     pub fn seen_by_camera(&self, points: &[Point], out: &mut Vec<bool>) {
         let mut view = self.view(self.time);
-        let mut depth = BodyDepth::new();
+        // The step's image when it holds this view (`build` then keeps it), else a new one.
+        let mut depth = self.body_depth.clone();
         if let Some(body) = &self.body {
             depth.build(body, &view);
             view.occluder = Some(&depth);
@@ -678,7 +679,6 @@ impl Simulation {
         }
     }
 
-    /// The camera's view in the head frame at time `t`.
     /// The camera's view cone at time `t` in the head frame, with no occluder yet.
     fn view(&self, t: Real) -> View<'static> {
         let head = drivers::head_motion(&self.scene.head_motion, t);
@@ -756,13 +756,10 @@ impl Simulation {
         }
         let t2 = Instant::now();
         stats.ms_lod = ms(t1, t2);
-        if self.adaptive.is_some() {
+        if let Some(lod) = &self.adaptive {
             stats.lod_splits = self.last_lod.splits;
             stats.lod_merges = self.last_lod.merges;
-            stats.lod_hidden_trees = self
-                .adaptive
-                .as_ref()
-                .map_or(0, |lod| lod.hidden_trees(&self.hierarchy));
+            stats.lod_hidden_trees = lod.hidden_trees(&self.hierarchy);
         }
 
         // 3. Grid over the front's segments (head frame, where the body is static).
