@@ -117,6 +117,16 @@ pub struct Simulation {
     /// Per skeleton, the first node the hard constraint moved in this pass (`u32::MAX`: none).
     first_moved: Vec<u32>,
     body_hits: Vec<Option<(Real, Vector)>>,
+    /// The hard constraint's sweeps: the chains of this pass and the next (`[skeleton, first
+    /// node asked]`, by skeleton), their radii, the first node each moved, the chains of the
+    /// first pass, and per node what its last test found.
+    sweep_chains: Vec<[u32; 2]>,
+    sweep_next: Vec<[u32; 2]>,
+    sweep_radius: Vec<Real>,
+    sweep_radius_next: Vec<Real>,
+    sweep_moved: Vec<u32>,
+    swept: Vec<[u32; 2]>,
+    sweep_hits: Vec<SweepHit>,
     /// Per node, during the depenetration ramp: how far its sphere may still reach into the
     /// body at the end of this step (m).
     allowance: Vec<Real>,
@@ -298,6 +308,13 @@ impl Simulation {
             body_nodes: Vec::new(),
             first_moved: Vec::new(),
             body_hits: Vec::new(),
+            sweep_chains: Vec::new(),
+            sweep_next: Vec::new(),
+            sweep_radius: Vec::new(),
+            sweep_radius_next: Vec::new(),
+            sweep_moved: Vec::new(),
+            swept: Vec::new(),
+            sweep_hits: Vec::new(),
             allowance: Vec::new(),
             render: RenderGeometry {
                 subdivisions: 3,
@@ -1086,34 +1103,48 @@ impl Simulation {
     /// front node closer to the body than its radius is moved out along the body's normal and
     /// loses its velocity into the body, with friction. The node stays on the sphere about the
     /// node before it, so a segment hanging straight into a surface swings out of it instead of
-    /// being re-aimed along itself. Hair that starts inside the body (at the first step, or the
-    /// first after a reset) comes out linearly over the first `depenetration_steps` steps (the
-    /// ramp): at the end of ramp step `k` a node may still reach `(ramp - k - 1) / (ramp - k)` of
-    /// the way it reached at the start of that step, and never more than it was allowed the step
-    /// before, so whatever pushes it back in, it is held to the ramp; a node next to one still
-    /// allowed inside is allowed that, less the segment between them. Every other node, including
-    /// one that reaches the body during the ramp, is resolved at once, so the ramp costs no more
-    /// passes than any other step. Passes repeat on the skeletons they moved until none is
-    /// deeper than the skin ([`CONTACT_SKIN`] of the tolerance) beyond its allowance, or
-    /// [`BODY_PASSES`] have run and no node is deeper than half the tolerance beyond it, or
-    /// [`MAX_BODY_PASSES`] have run; the depth returned is the deepest node centre left, counting
-    /// the nodes the passes stopped testing. Passes from [`BODY_PASSES`] on use the exact
-    /// distance, whatever the scene's method, once at most [`EXACT_LATE_NODES`] nodes are left;
-    /// after the ramp they send a node whose centre is still inside by more than half the
-    /// tolerance to the nearest point of its sphere about its parent that clears the body
-    /// ([`escape`]): lifting along the node's own normal can land it inside again where the body
-    /// is thin (an ear) or creased, pass after pass. The contacts of every pass lose their
-    /// approach velocity once, after the last pass. Returns the nodes in
-    /// contact on the first pass and the deepest node centre left inside the body (m).
+    /// being re-aimed along itself ([`body_target`]).
     ///
-    /// Measured and dropped: computing the passes' targets ahead in parallel wherever no node's
-    /// outcome depends on another's (outside the ramp's first pass and the late passes), with the
-    /// loop below only gathering them in order. The same corrections, but on `strands10k` the
-    /// first pass (310,000 nodes, 97,000 moved) took 9.5 ms for both parts against 8.1 ms for the
-    /// serial loop alone (temporary timers): the loop's cost is its bookkeeping, not the targets.
-    /// Also the first pass's queries in the grid's search order (near in space) instead of
-    /// skeleton by skeleton: on `wardlin`, 1.28-1.34 ms against 1.20-1.23 ms (fastest of 45
-    /// steps, alternated): the queries wait on arithmetic, not on memory.
+    /// After the ramp (below) the regular passes are sweeps ([`StrandState::sweep_chains`]):
+    /// each skeleton root to tip, in parallel over skeletons, every node tested where the
+    /// corrections before it on its skeleton put it, so that one sweep resolves a whole chain
+    /// where a pass over every node at once found the nodes after each corrected one pushed in
+    /// again by its refit. A corrected node's target is tested and moved again while still
+    /// inside, up to [`SWEEP_RETESTS`] times; the skeletons with a corrected node left
+    /// unconfirmed are swept again from their first such node, up to [`BODY_PASSES`] sweeps.
+    ///
+    /// Hair that starts inside the body (at the first step, or the first after a reset) comes
+    /// out linearly over the first `depenetration_steps` steps (the ramp): at the end of ramp
+    /// step `k` a node may still reach `(ramp - k - 1) / (ramp - k)` of the way it reached at the
+    /// start of that step, and never more than it was allowed the step before, so whatever
+    /// pushes it back in, it is held to the ramp; a node next to one still allowed inside is
+    /// allowed that, less the segment between them. Every other node, including one that
+    /// reaches the body during the ramp, is resolved at once. On the ramp the passes test every
+    /// node where the last pass left it (the allowances are set on the first), refit the
+    /// skeletons they moved, and repeat on them until no node is deeper than the skin
+    /// ([`CONTACT_SKIN`] of the tolerance) beyond its allowance, or [`BODY_PASSES`] have run.
+    ///
+    /// Late passes, from [`BODY_PASSES`] on (on the ramp, or for the skeletons the sweeps left
+    /// moving), run until no node is deeper than half the tolerance beyond its allowance or
+    /// [`MAX_BODY_PASSES`] have run. They use the exact distance, whatever the scene's method,
+    /// once at most [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose
+    /// centre is still inside by more than half the tolerance to the nearest point of its
+    /// sphere about its parent that clears the body ([`escape`]): lifting along the node's own
+    /// normal can land it inside again where the body is thin (an ear) or creased, pass after
+    /// pass. The contacts of every pass lose their approach velocity once, after the last pass.
+    /// Returns the nodes in contact on the first pass and the deepest node centre left inside
+    /// the body (m), each node counted where it was last tested.
+    ///
+    /// The sweeps replaced passes over every node at once (the queries in parallel, the
+    /// corrections gathered in order, the moved skeletons refitted after). With
+    /// `--lod fine --prefill-field`, alternated runs, the stage's median frame went from
+    /// 80.6-81.0 ms to 54.5-55.8 ms on `scenes/strands10k.ron` (frames 12-29, two rounds) and
+    /// from 4.26-4.31 ms to 3.34-3.50 ms on `wardlin` (frames 10-59, three rounds). Measured
+    /// and dropped before that: computing the passes' targets ahead in parallel, with the loop
+    /// only gathering them (on `strands10k` the first pass took 9.5 ms for both parts against
+    /// 8.1 ms for the serial loop alone); the first pass's queries in the grid's search order
+    /// (on `wardlin`, 1.28-1.34 ms against 1.20-1.23 ms): the queries wait on arithmetic, not
+    /// on memory.
     fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
         let Some(body) = self.body.as_ref() else {
             return Ok((0, 0.0));
@@ -1135,30 +1166,6 @@ impl Simulation {
         }
         let method = self.scene.collision.method;
         let friction = self.scene.collision.friction;
-        self.body_nodes.clear();
-        for &n in &self.front_nodes {
-            let id = SkeletonId(n);
-            if !self.state.is_active(id) {
-                // Frozen by localization: it has not moved since it was last resolved.
-                continue;
-            }
-            let r = self.state.nodes(id);
-            let skip = usize::from(!self.state.is_free(id));
-            let radius = self.state.radius()[r.start];
-            for i in r.start + skip..r.end {
-                self.body_nodes.push(BodyNode {
-                    node: i as u32,
-                    prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
-                    skeleton: n,
-                    radius,
-                });
-            }
-        }
-        let mut contacts = 0;
-        let mut deepest: Real = 0.0;
-        // The deepest node centre among the nodes the passes stopped testing (they no longer
-        // move).
-        let mut settled: Real = 0.0;
         let tolerance = 0.5 * self.scene.collision.tolerance;
         // A node the last pass left within rounding of the surface is in contact but needs no
         // refit: without this skin every pass found a few hundred nodes a few nanometres in and
@@ -1167,7 +1174,175 @@ impl Simulation {
         // The passes test positions only, so the velocity constraints of every pass wait for the
         // last one, in pass order: one refresh of each touched skeleton instead of one a pass.
         self.constraints.clear();
-        for pass in 0..=MAX_BODY_PASSES {
+        self.body_nodes.clear();
+        let mut contacts = 0;
+        // The deepest node centre among the nodes the sweeps left (they no longer move).
+        let mut swept_depth: Real = 0.0;
+        let first_pass = if in_ramp {
+            for &n in &self.front_nodes {
+                let id = SkeletonId(n);
+                if !self.state.is_active(id) {
+                    // Frozen by localization: it has not moved since it was last resolved.
+                    continue;
+                }
+                let r = self.state.nodes(id);
+                let skip = usize::from(!self.state.is_free(id));
+                let radius = self.state.radius()[r.start];
+                for i in r.start + skip..r.end {
+                    self.body_nodes.push(BodyNode {
+                        node: i as u32,
+                        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
+                        skeleton: n,
+                        radius,
+                    });
+                }
+            }
+            0
+        } else {
+            // The regular passes as sweeps: each skeleton root to tip, every node tested where
+            // the corrections before it put it, in parallel over skeletons. One sweep leaves
+            // a skeleton with every node tested where it ends except the corrected ones (the
+            // turn onto the sphere about the parent can leave one a little inside), so the next
+            // sweep starts at each skeleton's first corrected node.
+            self.sweep_chains.clear();
+            for &n in &self.front_nodes {
+                let id = SkeletonId(n);
+                if self.state.is_active(id) {
+                    self.sweep_chains
+                        .push([n, u32::from(!self.state.is_free(id))]);
+                }
+            }
+            self.sweep_chains.sort_unstable();
+            let radius = self.state.radius();
+            self.sweep_radius.clear();
+            self.sweep_radius.extend(
+                self.sweep_chains
+                    .iter()
+                    .map(|&[n, _]| radius[self.state.nodes(SkeletonId(n)).start]),
+            );
+            self.swept.clone_from(&self.sweep_chains);
+            self.sweep_hits
+                .resize(self.state.node_count(), SweepHit::default());
+            for pass in 0..BODY_PASSES {
+                if self.sweep_chains.is_empty() {
+                    break;
+                }
+                self.sweep_moved.clear();
+                self.sweep_moved.resize(self.sweep_chains.len(), u32::MAX);
+                let chain_radius = &self.sweep_radius;
+                self.state.sweep_chains(
+                    &self.sweep_chains,
+                    &mut self.sweep_hits,
+                    &mut self.sweep_moved,
+                    |ask, slot| {
+                        // A node a sweep before this one tested where it still is and did not
+                        // correct is not tested again.
+                        if pass > 0 && !ask.moved && !slot.corrected {
+                            slot.tested = false;
+                            return None;
+                        }
+                        let radius = chain_radius[ask.chain];
+                        let inside = |p: &Point| {
+                            body.distance_within(method, p, radius)
+                                .filter(|(d, _)| *d < radius)
+                        };
+                        let hit = inside(&ask.at);
+                        *slot = SweepHit {
+                            normal: hit.map(|(_, n)| n),
+                            depth: hit.map_or(0.0, |(d, _)| -d),
+                            tested: true,
+                            corrected: false,
+                        };
+                        let (d, n) = hit?;
+                        if radius - d <= skin {
+                            return None;
+                        }
+                        // The target is tested here, and moved again while still inside, a few
+                        // times: a query costs a small part of refitting the skeleton again on
+                        // the next sweep. Where it ends untested, the next sweep tests it.
+                        let mut target =
+                            body_target(body, method, ask.at, ask.parent, &n, radius - d, radius);
+                        slot.corrected = true;
+                        for _ in 0..SWEEP_RETESTS {
+                            match inside(&target) {
+                                Some((d, n)) if radius - d > skin => {
+                                    target = body_target(
+                                        body,
+                                        method,
+                                        target,
+                                        ask.parent,
+                                        &n,
+                                        radius - d,
+                                        radius,
+                                    );
+                                }
+                                end => {
+                                    slot.depth = end.map_or(0.0, |(d, _)| -d);
+                                    slot.corrected = false;
+                                    break;
+                                }
+                            }
+                        }
+                        Some(target)
+                    },
+                )?;
+                // The contacts in chain order, then the chains to sweep again.
+                self.sweep_next.clear();
+                self.sweep_radius_next.clear();
+                for (k, &[n, from]) in self.sweep_chains.iter().enumerate() {
+                    let r = self.state.nodes(SkeletonId(n));
+                    for node in r.start + from as usize..r.end {
+                        let h = &self.sweep_hits[node];
+                        if let (true, Some(normal)) = (h.tested, h.normal) {
+                            self.constraints.push(VelocityConstraint {
+                                node: node as u32,
+                                normal,
+                                friction,
+                            });
+                        }
+                    }
+                    let moved = self.sweep_moved[k];
+                    if moved != u32::MAX {
+                        self.sweep_next.push([n, moved - r.start as u32]);
+                        self.sweep_radius_next.push(self.sweep_radius[k]);
+                    }
+                }
+                if pass == 0 {
+                    contacts = self.constraints.len();
+                }
+                std::mem::swap(&mut self.sweep_chains, &mut self.sweep_next);
+                std::mem::swap(&mut self.sweep_radius, &mut self.sweep_radius_next);
+            }
+            // Skeletons still moving after the regular sweeps go on to the late passes below,
+            // from their first corrected node.
+            for (&[n, from], &radius) in self.sweep_chains.iter().zip(&self.sweep_radius) {
+                let r = self.state.nodes(SkeletonId(n));
+                for i in r.start + from as usize..r.end {
+                    self.sweep_hits[i].depth = 0.0;
+                    self.body_nodes.push(BodyNode {
+                        node: i as u32,
+                        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
+                        skeleton: n,
+                        radius,
+                    });
+                }
+            }
+            for &[n, from] in &self.swept {
+                let r = self.state.nodes(SkeletonId(n));
+                for h in &self.sweep_hits[r.start + from as usize..r.end] {
+                    swept_depth = swept_depth.max(h.depth);
+                }
+            }
+            BODY_PASSES
+        };
+        let mut deepest: Real = 0.0;
+        // The deepest node centre among the nodes the passes stopped testing (they no longer
+        // move).
+        let mut settled: Real = 0.0;
+        for pass in first_pass..=MAX_BODY_PASSES {
+            if pass > 0 && self.body_nodes.is_empty() {
+                break;
+            }
             let positions = self.state.positions();
             // The late passes, once few nodes are still moving, query the exact distance: an
             // approximate field or table can be wrong by about its spacing where the body is
@@ -1236,39 +1411,23 @@ impl Simulation {
                 }
                 deepest_free = deepest_free.max(-d - allowed);
                 let p = positions[bn.node as usize];
-                let mut target = p + n * lift;
-                if bn.prev != u32::MAX {
-                    let a = positions[bn.prev as usize];
-                    let len = (p - a).norm();
-                    if len > 1e-9 {
-                        let u0 = (p - a) / len;
-                        // After the ramp, a node still inside after the regular passes is caught
-                        // where lifting along its own normal lands in the body again (a thin part
-                        // such as an ear, or a crease): it goes to the nearest place on its sphere
-                        // that clears.
-                        let stuck = !ramped
-                            && pass >= BODY_PASSES
-                            && -d > tolerance
-                            && escapes < EXACT_LATE_NODES;
-                        escapes += usize::from(stuck);
-                        let c = (n.dot(&u0) * len + lift) / len;
-                        target = if stuck {
-                            escape(body, a, u0, len, bn.radius, -d).unwrap_or(target)
-                        } else if let Some(t) = (c > 1.0)
-                            .then(|| turn_out(body, method, a, u0, len, bn.radius))
-                            .flatten()
-                        {
-                            t
-                        } else {
-                            let c = c.clamp(-1.0, 1.0);
-                            let side = u0 - n * n.dot(&u0);
-                            let side = side
-                                .try_normalize(1e-6)
-                                .unwrap_or_else(|| any_perpendicular(n));
-                            a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
-                        };
+                let parent = (bn.prev != u32::MAX).then(|| positions[bn.prev as usize]);
+                // After the ramp, a node still inside after the regular passes is caught where
+                // lifting along its own normal lands in the body again (a thin part such as an
+                // ear, or a crease): it goes to the nearest place on its sphere that clears.
+                let stuck = parent.is_some_and(|a| (p - a).norm() > 1e-9)
+                    && !ramped
+                    && pass >= BODY_PASSES
+                    && -d > tolerance
+                    && escapes < EXACT_LATE_NODES;
+                escapes += usize::from(stuck);
+                let target = match parent {
+                    Some(a) if stuck => {
+                        let len = (p - a).norm();
+                        escape(body, a, (p - a) / len, len, bn.radius, -d).unwrap_or(p + n * lift)
                     }
-                }
+                    _ => body_target(body, method, p, parent.as_ref(), n, lift, bn.radius),
+                };
                 self.corrections.push(NodeCorrection {
                     node: bn.node,
                     delta: target - p,
@@ -1301,7 +1460,7 @@ impl Simulation {
         if !self.constraints.is_empty() {
             self.state.apply_velocity_constraints(&self.constraints)?;
         }
-        Ok((contacts, deepest.max(settled).max(0.0)))
+        Ok((contacts, deepest.max(settled).max(swept_depth).max(0.0)))
     }
 
     /// Kinetic energy of the front's nodes (J, head frame).
@@ -1464,6 +1623,42 @@ fn fill_frames(
     );
 }
 
+/// Where the hard constraint sends a node at `p` whose sphere reaches `lift` into the body
+/// (`n` the body's normal there): lifted along `n`, then, if it has a parent node, back onto
+/// its sphere about the parent at the height the lift asked for, so that a segment hanging
+/// straight into a surface swings out of it instead of being re-aimed along itself; where no
+/// place on that sphere is high enough, turned out ([`turn_out`]) by `method`.
+fn body_target(
+    body: &BodyModel,
+    method: CollisionMethod,
+    p: Point,
+    parent: Option<&Point>,
+    n: &Vector,
+    lift: Real,
+    radius: Real,
+) -> Point {
+    let lifted = p + n * lift;
+    let Some(&a) = parent else {
+        return lifted;
+    };
+    let len = (p - a).norm();
+    if len <= 1e-9 {
+        return lifted;
+    }
+    let u0 = (p - a) / len;
+    let c = (n.dot(&u0) * len + lift) / len;
+    if c > 1.0
+        && let Some(t) = turn_out(body, method, a, u0, len, radius)
+    {
+        return t;
+    }
+    let c = c.clamp(-1.0, 1.0);
+    let side = (u0 - n * n.dot(&u0))
+        .try_normalize(1e-6)
+        .unwrap_or_else(|| any_perpendicular(n));
+    a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
+}
+
 /// Where a node at `len` from its parent node `a` (its segment along `u0`) can go outside the
 /// body when lifting it along its own surface normal cannot reach the surface: the first of a
 /// few directions turned from `u0` toward the body's normal at `a` (back along the segment when
@@ -1551,10 +1746,29 @@ pub const CONTACT_SKIN: Real = 0.01;
 /// query by the exact distance instead of the scene's method.
 pub const EXACT_LATE_NODES: usize = 256;
 
+/// How many times a sweep of the hard body constraint tests a corrected node's target, and
+/// moves it again while it is still inside, before leaving it to the next sweep.
+pub const SWEEP_RETESTS: usize = 2;
+
 /// Most passes of the hard body constraint when nodes stay deeper than the tolerance.
 pub const MAX_BODY_PASSES: usize = 32;
 
 /// A node the hard body constraint tests, with the node before it on its skeleton.
+/// What the hard constraint's sweeps last found at a node.
+#[derive(Clone, Copy, Debug, Default)]
+struct SweepHit {
+    /// The body's normal where the node's sphere reached the body when last tested (its
+    /// velocity constraint).
+    normal: Option<Vector>,
+    /// How deep its centre is inside the body where it ends, as far as tested (m; negative
+    /// outside).
+    depth: Real,
+    /// Whether the present sweep tested it.
+    tested: bool,
+    /// Whether the sweep that last tested it moved it to a place it could not confirm clear.
+    corrected: bool,
+}
+
 #[derive(Clone, Copy, Debug)]
 struct BodyNode {
     node: u32,

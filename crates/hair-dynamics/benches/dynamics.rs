@@ -1,16 +1,18 @@
 //! Criterion benches of one step of 10,000 skeletons x 20 points, per integrator, on one thread
 //! and on all threads (the same workload as `hair bench dynamics`); the coupled implicit step also
-//! with the dense LU in place of the structured solve (`implicit_coupled_hand`).
+//! with the dense LU in place of the structured solve (`implicit_coupled_hand`). Also one sweep
+//! of `StrandState::sweep_chains` lifting the same strands onto a floor through their lower
+//! half (`sweep_10k_x_20_floor`): the hard body constraint's refit with a trivial body.
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{
-    BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
+    BatchSize, BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
 };
 use hair_dynamics::{
     Environment, Integrator, LinearSolver, Material, Point, Real, Root, SkeletonDesc, StepSettings,
-    StrandState, Style, Vector, style_points,
+    StrandState, Style, SweepAsk, Vector, style_points,
 };
 use nalgebra::{Rotation3, Unit};
 
@@ -129,5 +131,50 @@ fn bench_step(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_step);
+/// Where a node under the floor `y = FLOOR` goes: onto its sphere about its parent at the
+/// floor's height, or straight above the parent where the sphere does not reach that high.
+fn onto_floor(ask: &SweepAsk<'_>) -> Option<Point> {
+    const FLOOR: Real = -0.07;
+    if ask.at.y >= FLOOR {
+        return None;
+    }
+    let a = *ask.parent?;
+    let len = (ask.at - a).norm();
+    let rise = FLOOR - a.y;
+    if rise >= len {
+        return Some(a + Vector::y() * len);
+    }
+    let side = Vector::new(ask.at.x - a.x, 0.0, ask.at.z - a.z)
+        .try_normalize(1e-9)
+        .unwrap_or_else(Vector::x);
+    Some(a + side * (len * len - rise * rise).sqrt() + Vector::y() * rise)
+}
+
+fn bench_sweep(c: &mut Criterion) {
+    let fresh = scene();
+    let chains: Vec<[u32; 2]> = (0..SKELETONS as u32).map(|s| [s, 1]).collect();
+    let mut group = c.benchmark_group("sweep_10k_x_20_floor");
+    group
+        .throughput(Throughput::Elements((SKELETONS * POINTS) as u64))
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    group.bench_function("all_threads", |b| {
+        b.iter_batched_ref(
+            || {
+                let state = fresh.clone();
+                let out = vec![(); state.node_count()];
+                (state, out, vec![0u32; SKELETONS])
+            },
+            |(state, out, moved)| {
+                let _ =
+                    black_box(state.sweep_chains(&chains, out, moved, |ask, _| onto_floor(ask)));
+            },
+            BatchSize::LargeInput,
+        )
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_step, bench_sweep);
 criterion_main!(benches);

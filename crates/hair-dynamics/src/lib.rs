@@ -12,6 +12,7 @@
 //! | [`Environment`], [`Wind`], [`HeadMotion`], [`ForceField`] | gravity, wind, head motion as fictitious forces, force cones |
 //! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | five integrators, local or chain torque |
 //! | [`NodeCorrection`], [`VelocityConstraint`] | collision response mapped back to angles |
+//! | [`StrandState::sweep_chains`], [`SweepAsk`] | a position constraint applied root to tip, each node tested where the corrections before it put it (the hard body constraint) |
 //! | [`Bond`] | hairspray bonds between skeletons, with a break distance |
 //! | [`CutPoint`], [`StrandState::cut`], [`StrandState::hold_node`] | salon cuts (the fallen piece becomes a free skeleton) and grabbed control points |
 //! | [`mod@reference`] | f64 single-strand reference and the cantilever elastica |
@@ -56,7 +57,7 @@ pub use bonds::Bond;
 pub use environment::{Environment, ForceField, HeadMotion, Wind};
 pub use error::DynamicsError;
 pub use integrate::{Integrator, LinearSolver, StepReport, StepSettings, TorqueModel};
-pub use response::{NodeCorrection, VelocityConstraint};
+pub use response::{NodeCorrection, SweepAsk, VelocityConstraint};
 pub use salon_ops::{CutPoint, CutResult};
 pub use state::{Material, Root, SkeletonDesc, SkeletonId, StrandState};
 pub use style::{Style, style_points};

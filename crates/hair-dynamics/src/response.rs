@@ -273,6 +273,76 @@ impl StrandState {
         Ok(())
     }
 
+    /// Projects nodes onto a position constraint root to tip, skeleton by skeleton, in one pass:
+    /// the hard body constraint's sweep. Each chain `[skeleton, from]` (sorted by skeleton, one
+    /// per skeleton) asks `project(&ask, &mut out[node])` about nodes `from..` of its skeleton
+    /// (`from` counted within the skeleton) in order, with [`SweepAsk`] telling which node and
+    /// where it is given every correction made before it. `Some(target)` re-aims the node's
+    /// joint at `target` (its segment keeps its length, so the node reaches the target's
+    /// direction from its parent; a free root moves to it, a fixed one stays). From
+    /// the first corrected node on, the skeleton is refitted as
+    /// [`StrandState::apply_corrections`] would (each later node aims at where it was, from its
+    /// parent's new place) and every later node is asked at its new place, so a chain leaves the
+    /// sweep with every node tested where it ends. `first_moved[k]` gets the first node chain `k`
+    /// moved, or `u32::MAX`.
+    ///
+    /// Chains run in parallel over disjoint skeletons and each depends on its own skeleton alone,
+    /// so the result does not depend on the thread count. A non-finite target is not applied; the
+    /// sweep finishes and returns [`DynamicsError::InvalidNode`] for the first chain that gave
+    /// one.
+    pub fn sweep_chains<E, F>(
+        &mut self,
+        chains: &[[u32; 2]],
+        out: &mut [E],
+        first_moved: &mut [u32],
+        project: F,
+    ) -> Result<(), DynamicsError>
+    where
+        E: Send,
+        F: Fn(&SweepAsk<'_>, &mut E) -> Option<Point> + Sync,
+    {
+        let count = self.theta.len();
+        if out.len() != count || first_moved.len() != chains.len() {
+            return Err(DynamicsError::UnknownNode {
+                node: out.len().max(first_moved.len()),
+                count,
+            });
+        }
+        let mut last = None;
+        for &[s, from] in chains {
+            let (s, from) = (s as usize, from as usize);
+            if s >= self.offsets.len() || last.is_some_and(|l| l >= s) {
+                return Err(DynamicsError::UnknownSkeleton { skeleton: s });
+            }
+            last = Some(s);
+            if from >= self.counts[s] as usize {
+                return Err(DynamicsError::UnknownNode {
+                    node: self.offsets[s] as usize + from,
+                    count,
+                });
+            }
+        }
+        let bad = std::sync::Mutex::new(None::<(usize, usize, Real)>);
+        let (run, offsets, counts) = self.run_with_layout();
+        let job = SweepJob {
+            offsets,
+            counts,
+            project: &project,
+            bad: &bad,
+        };
+        job.split(run, out, chains, first_moved, 0);
+        match bad.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            Some((skeleton, node, value)) => Err(DynamicsError::InvalidNode {
+                skeleton,
+                node,
+                field: "sweep target",
+                value: f64::from(value),
+                expected: "finite",
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// Applies velocity constraints: each constrained node's own joint loses the part of its rate
     /// that drives the node into the surface (a projection of the joint's two rates, so it never
     /// speeds a joint up and never adds energy), and friction slows what remains. Distal nodes
@@ -465,4 +535,168 @@ fn sort_groups_by_node(order: &mut [u32], groups: &[u32], constraints: &[Velocit
         || sort_groups_by_node(left, &groups[..=mid], constraints),
         || sort_groups_by_node(right, &groups[mid..], constraints),
     );
+}
+
+/// One node [`StrandState::sweep_chains`] asks about.
+#[derive(Clone, Copy, Debug)]
+pub struct SweepAsk<'a> {
+    /// Index of the node's chain in the list given.
+    pub chain: usize,
+    /// Global node index.
+    pub node: usize,
+    /// Where its parent node is now (`None` for a root).
+    pub parent: Option<&'a Point>,
+    /// Where the node is now, every correction before it on its skeleton made.
+    pub at: Point,
+    /// Whether this sweep has moved it (a correction before it on its skeleton): `false` means
+    /// it is where the sweep found it.
+    pub moved: bool,
+}
+
+/// The shared part of one [`StrandState::sweep_chains`] call.
+struct SweepJob<'a, F> {
+    offsets: &'a [u32],
+    counts: &'a [u32],
+    project: &'a F,
+    /// The first chain (by index) that gave a non-finite target: its skeleton, node within the
+    /// skeleton and a coordinate.
+    bad: &'a std::sync::Mutex<Option<(usize, usize, Real)>>,
+}
+
+impl<F> SweepJob<'_, F> {
+    /// Splits the chains (and the run and outputs with them) in halves down to a grain, then
+    /// sweeps each chain; `base` is the index of `chains[0]` in the whole list.
+    fn split<E: Send>(
+        &self,
+        mut run: Run<'_>,
+        out: &mut [E],
+        chains: &[[u32; 2]],
+        first_moved: &mut [u32],
+        base: usize,
+    ) where
+        F: Fn(&SweepAsk<'_>, &mut E) -> Option<Point> + Sync,
+    {
+        const GRAIN: usize = 16;
+        if chains.len() > GRAIN {
+            let half = chains.len() / 2;
+            let mid = chains[half][0] as usize;
+            let at = self.offsets[mid] as usize;
+            let (a, b) = run.split(mid, at);
+            let (out_a, out_b) = out.split_at_mut(at - a.node_base);
+            let (ca, cb) = chains.split_at(half);
+            let (fa, fb) = first_moved.split_at_mut(half);
+            rayon::join(
+                || self.split(a, out_a, ca, fa, base),
+                || self.split(b, out_b, cb, fb, base + half),
+            );
+            return;
+        }
+        for (k, (&[s, from], moved)) in chains.iter().zip(first_moved).enumerate() {
+            *moved = self.sweep(&mut run, out, base + k, s as usize, from as usize);
+        }
+    }
+
+    /// One chain: asks about its nodes at their stored places until one is corrected, then
+    /// refits the skeleton from its root, asking about every later node at its new place.
+    /// Returns the first node moved (global index) or `u32::MAX`.
+    fn sweep<E>(&self, run: &mut Run<'_>, out: &mut [E], k: usize, s: usize, from: usize) -> u32
+    where
+        F: Fn(&SweepAsk<'_>, &mut E) -> Option<Point> + Sync,
+    {
+        let r = run.local_nodes(s, self.offsets, self.counts);
+        let base = run.node_base;
+        let finite = |t: &Point| t.coords.iter().all(|c| c.is_finite());
+        let report = |i: usize, t: &Point| {
+            let c = t
+                .coords
+                .iter()
+                .copied()
+                .find(|c| !c.is_finite())
+                .unwrap_or(0.0);
+            let mut bad = self.bad.lock().unwrap_or_else(|e| e.into_inner());
+            if bad.is_none() {
+                *bad = Some((s, i - r.start, c));
+            }
+        };
+        // At the stored places, until the first correction.
+        let mut first = None;
+        for i in r.start + from..r.end {
+            let parent = (i > r.start).then(|| run.positions[i - 1]);
+            let ask = SweepAsk {
+                chain: k,
+                node: base + i,
+                parent: parent.as_ref(),
+                at: run.positions[i],
+                moved: false,
+            };
+            if let Some(t) = (self.project)(&ask, &mut out[i]) {
+                if finite(&t) {
+                    first = Some((i, t));
+                    break;
+                }
+                report(i, &t);
+            }
+        }
+        let Some((moved, target)) = first else {
+            return u32::MAX;
+        };
+        // The refit, as `refit_skeleton` with the one target, then the later nodes asked.
+        let root = &mut run.roots[s - run.first];
+        if root.free {
+            root.position = if moved == r.start {
+                target
+            } else {
+                run.positions[r.start]
+            };
+        }
+        let mut rot = root.rotation;
+        let mut position = root.position;
+        let mut velocity = if root.free {
+            root.velocity
+        } else {
+            Vector::zeros()
+        };
+        let mut omega = Vector::zeros();
+        run.positions[r.start] = position;
+        run.velocities[r.start] = velocity;
+        for i in r.start + 1..r.end {
+            let keep = (run.theta[i], run.phi[i]);
+            let (mut x, mut y) = if i == moved {
+                aim(&rot, &position, &target, keep)
+            } else {
+                aim(&rot, &position, &run.positions[i], keep)
+            };
+            let mut bend = Bend::new(x, y);
+            if i > moved {
+                let ask = SweepAsk {
+                    chain: k,
+                    node: base + i,
+                    parent: Some(&position),
+                    at: position + rot * bend.rotation.column(2) * run.length[i],
+                    moved: true,
+                };
+                let asked = (self.project)(&ask, &mut out[i]);
+                if let Some(t) = asked {
+                    if finite(&t) {
+                        (x, y) = aim(&rot, &position, &t, keep);
+                        bend = Bend::new(x, y);
+                    } else {
+                        report(i, &t);
+                    }
+                }
+            }
+            run.theta[i] = x;
+            run.phi[i] = y;
+            let ax = rot * bend.axis_x;
+            let ay = rot * bend.axis_y;
+            rot *= bend.rotation;
+            let segment = rot.column(2).into_owned() * run.length[i];
+            omega += ax * run.omega_theta[i] + ay * run.omega_phi[i];
+            position += segment;
+            velocity += omega.cross(&segment);
+            run.positions[i] = position;
+            run.velocities[i] = velocity;
+        }
+        (base + moved) as u32
+    }
 }
