@@ -285,6 +285,7 @@ impl ViewApp {
             super::EXIT_FAILED.store(true, std::sync::atomic::Ordering::SeqCst);
         }
         self.phase = Phase::Closed;
+        self.renderer.stop();
         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
     }
 
@@ -564,7 +565,8 @@ impl ViewApp {
             height: size[1],
             ..hair_render::RenderSettings::default()
         };
-        if self.renderer.requests.send((scene, settings)).is_ok() {
+        let requests = self.renderer.requests.as_ref();
+        if requests.is_some_and(|r| r.send((scene, settings)).is_ok()) {
             self.renderer.busy = true;
         }
     }
@@ -747,10 +749,12 @@ type RenderRequest = (hair_render::RenderScene, hair_render::RenderSettings);
 /// `hair-render` on its own thread: on a software rasteriser an image takes longer than a
 /// window frame, and the window must keep taking input meanwhile. One request at a time.
 struct RenderWorker {
-    requests: mpsc::Sender<RenderRequest>,
+    /// `None` once stopped.
+    requests: Option<mpsc::Sender<RenderRequest>>,
     images: mpsc::Receiver<Result<(hair_render::RgbaImage, f64)>>,
     busy: bool,
     describe: String,
+    thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl RenderWorker {
@@ -759,7 +763,7 @@ impl RenderWorker {
         let (outbox, images) = mpsc::channel();
         let renderer = hair_render::Renderer::new();
         let describe = renderer.describe();
-        std::thread::spawn(move || {
+        let thread = std::thread::spawn(move || {
             while let Ok((scene, settings)) = inbox.recv() {
                 let t = Instant::now();
                 let image = renderer
@@ -772,11 +776,30 @@ impl RenderWorker {
             }
         });
         Self {
-            requests,
+            requests: Some(requests),
             images,
             busy: false,
             describe,
+            thread: Some(thread),
         }
+    }
+
+    /// Takes no more requests and waits for the render in flight, if any, and for the worker's
+    /// renderer to be dropped on its thread. A process that ends while a render is still in the
+    /// graphics driver can crash in the driver's teardown: one run of the `view_xvfb` test in
+    /// about a dozen, on a loaded machine, ended in SIGSEGV after every output was written.
+    fn stop(&mut self) {
+        self.requests = None;
+        if let Some(thread) = self.thread.take() {
+            // A worker that panicked has nothing left in the driver either.
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Drop for RenderWorker {
+    fn drop(&mut self) {
+        self.stop();
     }
 }
 
