@@ -75,17 +75,7 @@ fn aim(rot: &Matrix3<Real>, from: &Point, target: &Point, keep: (Real, Real)) ->
 /// 0.91-0.96 ms (fastest of 50 steps, three alternated rounds; medians equal): the chains were
 /// not what it waits on.
 fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point], moved: &[bool]) {
-    let root = &run.roots[s - run.first];
-    let mut rot = root.rotation;
-    let mut position = root.position;
-    let mut velocity = if root.free {
-        root.velocity
-    } else {
-        Vector::zeros()
-    };
-    let mut omega = Vector::zeros();
-    run.positions[r.start] = position;
-    run.velocities[r.start] = velocity;
+    let mut chain = Refit::from_root(run, s, r.start);
     for (k, i) in r.clone().enumerate().skip(1) {
         // Node `i` is read before it is written below, and later nodes are not yet written.
         let target = if moved[k] {
@@ -93,19 +83,61 @@ fn refit_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>, targets: &[Point
         } else {
             run.positions[i]
         };
-        let (x, y) = aim(&rot, &position, &target, (run.theta[i], run.phi[i]));
+        let (x, y) = aim(
+            &chain.rot,
+            &chain.position,
+            &target,
+            (run.theta[i], run.phi[i]),
+        );
+        chain.joint(run, i, (x, y), &Bend::new(x, y));
+    }
+}
+
+/// A refit in progress, root to tip: the frame, place and velocity of the last node written,
+/// and the angular velocity summed to it.
+struct Refit {
+    rot: Matrix3<Real>,
+    position: Point,
+    velocity: Vector,
+    omega: Vector,
+}
+
+impl Refit {
+    /// From skeleton `s`'s root (its node `root` in `run`), which it writes.
+    #[inline(always)]
+    fn from_root(run: &mut Run<'_>, s: usize, root: usize) -> Self {
+        let rs = &run.roots[s - run.first];
+        let velocity = if rs.free {
+            rs.velocity
+        } else {
+            Vector::zeros()
+        };
+        let chain = Self {
+            rot: rs.rotation,
+            position: rs.position,
+            velocity,
+            omega: Vector::zeros(),
+        };
+        run.positions[root] = chain.position;
+        run.velocities[root] = velocity;
+        chain
+    }
+
+    /// Node `i` with the angles `(x, y)` and their `bend`: its angles, place and velocity
+    /// written, the chain advanced past it.
+    #[inline(always)]
+    fn joint(&mut self, run: &mut Run<'_>, i: usize, (x, y): (Real, Real), bend: &Bend<Real>) {
         run.theta[i] = x;
         run.phi[i] = y;
-        let bend = Bend::new(x, y);
-        let ax = rot * bend.axis_x;
-        let ay = rot * bend.axis_y;
-        rot *= bend.rotation;
-        let segment = rot.column(2).into_owned() * run.length[i];
-        omega += ax * run.omega_theta[i] + ay * run.omega_phi[i];
-        position += segment;
-        velocity += omega.cross(&segment);
-        run.positions[i] = position;
-        run.velocities[i] = velocity;
+        let ax = self.rot * bend.axis_x;
+        let ay = self.rot * bend.axis_y;
+        self.rot *= bend.rotation;
+        let segment = self.rot.column(2).into_owned() * run.length[i];
+        self.omega += ax * run.omega_theta[i] + ay * run.omega_phi[i];
+        self.position += segment;
+        self.velocity += self.omega.cross(&segment);
+        run.positions[i] = self.position;
+        run.velocities[i] = self.velocity;
     }
 }
 
@@ -649,18 +681,10 @@ impl<F> SweepJob<'_, F> {
                 run.positions[r.start]
             };
         }
-        let mut rot = root.rotation;
-        let mut position = root.position;
-        let mut velocity = if root.free {
-            root.velocity
-        } else {
-            Vector::zeros()
-        };
-        let mut omega = Vector::zeros();
-        run.positions[r.start] = position;
-        run.velocities[r.start] = velocity;
+        let mut chain = Refit::from_root(run, s, r.start);
         for i in r.start + 1..r.end {
             let keep = (run.theta[i], run.phi[i]);
+            let (rot, position) = (chain.rot, chain.position);
             let (mut x, mut y) = if i == moved {
                 aim(&rot, &position, &target, keep)
             } else {
@@ -685,17 +709,7 @@ impl<F> SweepJob<'_, F> {
                     }
                 }
             }
-            run.theta[i] = x;
-            run.phi[i] = y;
-            let ax = rot * bend.axis_x;
-            let ay = rot * bend.axis_y;
-            rot *= bend.rotation;
-            let segment = rot.column(2).into_owned() * run.length[i];
-            omega += ax * run.omega_theta[i] + ay * run.omega_phi[i];
-            position += segment;
-            velocity += omega.cross(&segment);
-            run.positions[i] = position;
-            run.velocities[i] = velocity;
+            chain.joint(run, i, (x, y), &bend);
         }
         (base + moved) as u32
     }
