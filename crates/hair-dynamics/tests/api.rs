@@ -228,22 +228,13 @@ fn velocity_constraints_remove_the_approach_and_apply_friction() {
 
 #[test]
 fn bonds_pull_and_break_at_their_distance() {
-    let mut state = StrandState::new();
-    for x in [0.0f32, 0.01] {
-        let frame = frame_along(-Vector::y());
-        let root = Point::new(x, 0.0, 0.0);
-        let points = style_points(root, &frame, &Style::Straight, 6, 0.1).unwrap();
-        state
-            .add_skeleton(&SkeletonDesc {
-                root: Root::Attached {
-                    position: root,
-                    frame,
-                },
-                points,
-                material: Material::default(),
-            })
-            .unwrap();
-    }
+    let down = -Vector::y();
+    let mut state = strands(
+        &[(Point::origin(), down), (Point::new(0.01, 0.0, 0.0), down)],
+        &Style::Straight,
+        6,
+        0.1,
+    );
     let a = state.nodes(SkeletonId(0)).end - 1;
     let b = state.nodes(SkeletonId(1)).end - 1;
     state

@@ -11,24 +11,15 @@ use support::*;
 /// Strands hanging from roots spread along x at height `y0`, each along its own direction in
 /// the x-y plane (tilted by `tilt` radians from straight down) with a style.
 fn hanging(roots: &[(Real, Real)], n: usize, length: Real, style: Style) -> StrandState {
-    let mut state = StrandState::new();
-    for (k, &(y0, tilt)) in roots.iter().enumerate() {
-        let dir = Vector::new(tilt.sin(), -tilt.cos(), 0.0);
-        let frame = frame_along(dir);
-        let root = Point::new(0.05 * k as Real, y0, 0.0);
-        let points = style_points(root, &frame, &style, n, length).expect("valid style");
-        state
-            .add_skeleton(&SkeletonDesc {
-                root: Root::Attached {
-                    position: root,
-                    frame,
-                },
-                points,
-                material: Material::default(),
-            })
-            .expect("valid skeleton");
-    }
-    state
+    let roots: Vec<(Point, Vector)> = roots
+        .iter()
+        .enumerate()
+        .map(|(k, &(y0, tilt))| {
+            let root = Point::new(0.05 * k as Real, y0, 0.0);
+            (root, Vector::new(tilt.sin(), -tilt.cos(), 0.0))
+        })
+        .collect();
+    strands(&roots, &style, n, length)
 }
 
 /// Where a node below the floor `y = floor` goes: onto its sphere about its parent a hair above

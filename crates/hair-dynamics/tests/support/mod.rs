@@ -34,6 +34,26 @@ pub fn one_strand(
     (state, id)
 }
 
+/// Attached strands, one per `(root, direction)`, each with a style, `n` points and `length`.
+pub fn strands(roots: &[(Point, Vector)], style: &Style, n: usize, length: Real) -> StrandState {
+    let mut state = StrandState::new();
+    for &(root, dir) in roots {
+        let frame = frame_along(dir);
+        let points = style_points(root, &frame, style, n, length).expect("valid style");
+        state
+            .add_skeleton(&SkeletonDesc {
+                root: Root::Attached {
+                    position: root,
+                    frame,
+                },
+                points,
+                material: Material::default(),
+            })
+            .expect("valid skeleton");
+    }
+    state
+}
+
 pub fn settings(dt: Real, integrator: Integrator, torque: TorqueModel) -> StepSettings {
     StepSettings {
         dt,
