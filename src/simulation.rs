@@ -118,12 +118,11 @@ pub struct Simulation {
     first_moved: Vec<u32>,
     body_hits: Vec<Option<(Real, Vector)>>,
     /// The hard constraint's sweeps: the chains of this pass and the next (`[skeleton, first
-    /// node asked]`, by skeleton), their radii, the first node each moved, the chains of the
-    /// first pass, and per node what its last test found.
+    /// node asked]`, by skeleton), per skeleton its radius, the first node each chain moved,
+    /// the chains of the first pass, and per node what its last test found.
     sweep_chains: Vec<[u32; 2]>,
     sweep_next: Vec<[u32; 2]>,
     sweep_radius: Vec<Real>,
-    sweep_radius_next: Vec<Real>,
     sweep_moved: Vec<u32>,
     swept: Vec<[u32; 2]>,
     sweep_hits: Vec<SweepHit>,
@@ -311,7 +310,6 @@ impl Simulation {
             sweep_chains: Vec::new(),
             sweep_next: Vec::new(),
             sweep_radius: Vec::new(),
-            sweep_radius_next: Vec::new(),
             sweep_moved: Vec::new(),
             swept: Vec::new(),
             sweep_hits: Vec::new(),
@@ -358,7 +356,8 @@ impl Simulation {
             }
             // Settle the starting front: one level per selection, from the root strips down.
             // Without the body's occlusion: hair hidden at rest coarsens only after
-            // `HIDDEN_AFTER` steps of wind. Settled with it and counted hidden at once,
+            // `HIDDEN_AFTER` steps of wind. Settled with it and counted hidden at once (tried on
+            // 5eea007: this view given the body's depth image and the hidden count, then dropped),
             // `wardlin`'s front started at 2,524 skeletons and averaged 2,596 over 60 frames
             // against 2,919, but the visible RMS distance from `fine` (`hair study wardlin`)
             // went from 1.94 to 3.76 mm: hair hidden at rest that the wind brings into view came
@@ -1137,7 +1136,8 @@ impl Simulation {
     ///
     /// The sweeps replaced passes over every node at once (the queries in parallel, the
     /// corrections gathered in order, the moved skeletons refitted after). With
-    /// `--lod fine --prefill-field`, alternated runs, the stage's median frame went from
+    /// `--lod fine --prefill-field`, alternated runs of 66cab18 and e682da2 (each built with
+    /// `cargo build --release -p hair-cli`), the stage's median frame went from
     /// 80.6-81.0 ms to 54.5-55.8 ms on `scenes/strands10k.ron` (frames 12-29, two rounds) and
     /// from 4.26-4.31 ms to 3.34-3.50 ms on `wardlin` (frames 10-59, three rounds). Measured
     /// and dropped before that: computing the passes' targets ahead in parallel, with the loop
@@ -1185,17 +1185,8 @@ impl Simulation {
                     // Frozen by localization: it has not moved since it was last resolved.
                     continue;
                 }
-                let r = self.state.nodes(id);
-                let skip = usize::from(!self.state.is_free(id));
-                let radius = self.state.radius()[r.start];
-                for i in r.start + skip..r.end {
-                    self.body_nodes.push(BodyNode {
-                        node: i as u32,
-                        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
-                        skeleton: n,
-                        radius,
-                    });
-                }
+                let from = u32::from(!self.state.is_free(id));
+                push_body_nodes(&mut self.body_nodes, &self.state, n, from);
             }
             0
         } else {
@@ -1213,13 +1204,13 @@ impl Simulation {
                 }
             }
             self.sweep_chains.sort_unstable();
-            let radius = self.state.radius();
-            self.sweep_radius.clear();
-            self.sweep_radius.extend(
-                self.sweep_chains
-                    .iter()
-                    .map(|&[n, _]| radius[self.state.nodes(SkeletonId(n)).start]),
-            );
+            // The sweep holds the state, so the callback reads each skeleton's radius from here.
+            let (radius, state) = (&mut self.sweep_radius, &self.state);
+            radius.clear();
+            radius.extend((0..state.skeleton_count() as u32).map(|n| {
+                let r = state.nodes(SkeletonId(n));
+                state.radius().get(r.start).copied().unwrap_or(0.0)
+            }));
             self.swept.clone_from(&self.sweep_chains);
             self.sweep_hits
                 .resize(self.state.node_count(), SweepHit::default());
@@ -1229,9 +1220,9 @@ impl Simulation {
                 }
                 self.sweep_moved.clear();
                 self.sweep_moved.resize(self.sweep_chains.len(), u32::MAX);
-                let chain_radius = &self.sweep_radius;
+                let (chains, skeleton_radius) = (&self.sweep_chains, &self.sweep_radius);
                 self.state.sweep_chains(
-                    &self.sweep_chains,
+                    chains,
                     &mut self.sweep_hits,
                     &mut self.sweep_moved,
                     |ask, slot| {
@@ -1241,7 +1232,7 @@ impl Simulation {
                             slot.tested = false;
                             return None;
                         }
-                        let radius = chain_radius[ask.chain];
+                        let radius = skeleton_radius[chains[ask.chain][0] as usize];
                         let inside = |p: &Point| {
                             body.distance_within(method, p, radius)
                                 .filter(|(d, _)| *d < radius)
@@ -1288,7 +1279,6 @@ impl Simulation {
                 )?;
                 // The contacts in chain order, then the chains to sweep again.
                 self.sweep_next.clear();
-                self.sweep_radius_next.clear();
                 for (k, &[n, from]) in self.sweep_chains.iter().enumerate() {
                     let r = self.state.nodes(SkeletonId(n));
                     for node in r.start + from as usize..r.end {
@@ -1304,28 +1294,21 @@ impl Simulation {
                     let moved = self.sweep_moved[k];
                     if moved != u32::MAX {
                         self.sweep_next.push([n, moved - r.start as u32]);
-                        self.sweep_radius_next.push(self.sweep_radius[k]);
                     }
                 }
                 if pass == 0 {
                     contacts = self.constraints.len();
                 }
                 std::mem::swap(&mut self.sweep_chains, &mut self.sweep_next);
-                std::mem::swap(&mut self.sweep_radius, &mut self.sweep_radius_next);
             }
             // Skeletons still moving after the regular sweeps go on to the late passes below,
             // from their first corrected node.
-            for (&[n, from], &radius) in self.sweep_chains.iter().zip(&self.sweep_radius) {
+            for &[n, from] in &self.sweep_chains {
                 let r = self.state.nodes(SkeletonId(n));
-                for i in r.start + from as usize..r.end {
-                    self.sweep_hits[i].depth = 0.0;
-                    self.body_nodes.push(BodyNode {
-                        node: i as u32,
-                        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
-                        skeleton: n,
-                        radius,
-                    });
+                for h in &mut self.sweep_hits[r.start + from as usize..r.end] {
+                    h.depth = 0.0;
                 }
+                push_body_nodes(&mut self.body_nodes, &self.state, n, from);
             }
             for &[n, from] in &self.swept {
                 let r = self.state.nodes(SkeletonId(n));
@@ -1621,6 +1604,19 @@ fn fill_frames(
         || fill_frames(state, low, base, &ranges[..mid]),
         || fill_frames(state, high, ranges[mid].0, &ranges[mid..]),
     );
+}
+
+/// The nodes of skeleton `n` from its node `from` on, for the hard constraint's passes, each with
+/// the node before it and the skeleton's radius.
+fn push_body_nodes(out: &mut Vec<BodyNode>, state: &StrandState, n: u32, from: u32) {
+    let r = state.nodes(SkeletonId(n));
+    let radius = state.radius()[r.start];
+    out.extend((r.start + from as usize..r.end).map(|i| BodyNode {
+        node: i as u32,
+        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
+        skeleton: n,
+        radius,
+    }));
 }
 
 /// Where the hard constraint sends a node at `p` whose sphere reaches `lift` into the body

@@ -6,7 +6,7 @@
 //! node cannot move alone: each segment is re-aimed at its corrected target in turn.
 
 use crate::bend::{Bend, bend_between};
-use crate::run::{Run, for_each_skeleton};
+use crate::run::{GRAIN_SKELETONS, Run, for_each_skeleton};
 use crate::{DynamicsError, Point, Real, StrandState, Vector};
 use nalgebra::Matrix3;
 use std::ops::Range;
@@ -596,7 +596,8 @@ struct SweepJob<'a, F> {
 }
 
 impl<F> SweepJob<'_, F> {
-    /// Splits the chains (and the run and outputs with them) in halves down to a grain, then
+    /// Splits the chains (and the run and outputs with them) in halves down to the grain of
+    /// `for_each_skeleton`, then
     /// sweeps each chain; `base` is the index of `chains[0]` in the whole list.
     fn split<E: Send>(
         &self,
@@ -608,8 +609,7 @@ impl<F> SweepJob<'_, F> {
     ) where
         F: Fn(&SweepAsk<'_>, &mut E) -> Option<Point> + Sync,
     {
-        const GRAIN: usize = 16;
-        if chains.len() > GRAIN {
+        if chains.len() > GRAIN_SKELETONS {
             let half = chains.len() / 2;
             let mid = chains[half][0] as usize;
             let at = self.offsets[mid] as usize;

@@ -95,7 +95,7 @@ impl StrandState {
 }
 
 /// Skeletons per leaf of [`for_each_skeleton`]: enough work to amortise a fork.
-const GRAIN_SKELETONS: usize = 16;
+pub(crate) const GRAIN_SKELETONS: usize = 16;
 
 /// Calls `f(run, k)` for each `k` in `0..skeletons.len()`, where `skeletons` holds sorted,
 /// unique skeleton indices and `run` contains skeleton `skeletons[k]`; in parallel over disjoint

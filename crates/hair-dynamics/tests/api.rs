@@ -230,8 +230,10 @@ fn velocity_constraints_remove_the_approach_and_apply_friction() {
 fn bonds_pull_and_break_at_their_distance() {
     let down = -Vector::y();
     let mut state = strands(
-        &[(Point::origin(), down), (Point::new(0.01, 0.0, 0.0), down)],
-        &Style::Straight,
+        &[
+            (Point::origin(), down, Style::Straight),
+            (Point::new(0.01, 0.0, 0.0), down, Style::Straight),
+        ],
         6,
         0.1,
     );
@@ -362,12 +364,10 @@ fn a_shaking_head_swings_the_hair() {
 
 #[test]
 fn results_are_identical_for_any_thread_count() {
-    let build = || {
-        let mut state = StrandState::new();
-        for k in 0..64 {
+    let roots: Vec<(Point, Vector, Style)> = (0..64)
+        .map(|k| {
             let a = k as f32 * 0.1;
             let root = Point::new(0.1 * a.cos(), 0.1, 0.1 * a.sin());
-            let frame = frame_along(Vector::new(a.cos(), 0.3, a.sin()));
             let style = if k % 2 == 0 {
                 Style::Curly {
                     radius: 0.01,
@@ -376,20 +376,9 @@ fn results_are_identical_for_any_thread_count() {
             } else {
                 Style::Straight
             };
-            let points = style_points(root, &frame, &style, 20, 0.25).unwrap();
-            state
-                .add_skeleton(&SkeletonDesc {
-                    root: Root::Attached {
-                        position: root,
-                        frame,
-                    },
-                    points,
-                    material: Material::default(),
-                })
-                .unwrap();
-        }
-        state
-    };
+            (root, Vector::new(a.cos(), 0.3, a.sin()), style)
+        })
+        .collect();
     let env = Environment {
         wind: Wind {
             speed: 4.0,
@@ -400,12 +389,8 @@ fn results_are_identical_for_any_thread_count() {
         ..Environment::default()
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut state = build();
+        on_threads(threads, || {
+            let mut state = strands(&roots, 20, 0.25);
             for _ in 0..60 {
                 state
                     .step(

@@ -11,15 +11,15 @@ use support::*;
 /// Strands hanging from roots spread along x at height `y0`, each along its own direction in
 /// the x-y plane (tilted by `tilt` radians from straight down) with a style.
 fn hanging(roots: &[(Real, Real)], n: usize, length: Real, style: Style) -> StrandState {
-    let roots: Vec<(Point, Vector)> = roots
+    let roots: Vec<(Point, Vector, Style)> = roots
         .iter()
         .enumerate()
         .map(|(k, &(y0, tilt))| {
             let root = Point::new(0.05 * k as Real, y0, 0.0);
-            (root, Vector::new(tilt.sin(), -tilt.cos(), 0.0))
+            (root, Vector::new(tilt.sin(), -tilt.cos(), 0.0), style)
         })
         .collect();
-    strands(&roots, &style, n, length)
+    strands(&roots, n, length)
 }
 
 /// Where a node below the floor `y = floor` goes: onto its sphere about its parent a hair above
@@ -179,11 +179,7 @@ fn a_sweep_does_not_depend_on_the_thread_count() {
         })
         .collect();
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut state = hanging(&roots, 12, 0.3, style(2));
             let chains = every_chain(&state);
             let mut out = vec![(); state.node_count()];

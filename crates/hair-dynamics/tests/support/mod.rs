@@ -34,12 +34,12 @@ pub fn one_strand(
     (state, id)
 }
 
-/// Attached strands, one per `(root, direction)`, each with a style, `n` points and `length`.
-pub fn strands(roots: &[(Point, Vector)], style: &Style, n: usize, length: Real) -> StrandState {
+/// Attached strands, one per `(root, direction, style)`, each with `n` points and `length`.
+pub fn strands(roots: &[(Point, Vector, Style)], n: usize, length: Real) -> StrandState {
     let mut state = StrandState::new();
-    for &(root, dir) in roots {
+    for &(root, dir, style) in roots {
         let frame = frame_along(dir);
-        let points = style_points(root, &frame, style, n, length).expect("valid style");
+        let points = style_points(root, &frame, &style, n, length).expect("valid style");
         state
             .add_skeleton(&SkeletonDesc {
                 root: Root::Attached {
@@ -52,6 +52,15 @@ pub fn strands(roots: &[(Point, Vector)], style: &Style, n: usize, length: Real)
             .expect("valid skeleton");
     }
     state
+}
+
+/// `f` on a pool of `threads` worker threads.
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+        .install(f)
 }
 
 pub fn settings(dt: Real, integrator: Integrator, torque: TorqueModel) -> StepSettings {
