@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 fn sintel(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/sintel")
+        .join("../../assets/sintel")
         .join(name)
 }
 
