@@ -54,6 +54,9 @@ pub enum HairError {
     /// The grid rejected its input.
     #[error("grid: {0}")]
     Grid(#[from] hair_grid::GridError),
+    /// A collision stage failed (a correction the strand state refused, or the grid's input).
+    #[error("collision: {0}")]
+    Collide(#[from] hair_collide::CollideError),
     /// The level-of-detail layer rejected a transition.
     #[error("lod: {0}")]
     Lod(#[from] hair_lod::LodError),

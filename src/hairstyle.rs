@@ -295,14 +295,13 @@ pub fn procedural(p: &ProceduralHair, seed: u64) -> Result<Hairstyle, HairError>
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body::BodyModel;
     use crate::scene::BodySpec;
 
     /// Draped hair keeps the styled segment lengths, and every point past the root lies outside
     /// the head body by at least a strand radius (straight hair from the same roots goes in).
     #[test]
     fn draped_hair_lies_outside_the_head_with_its_lengths() {
-        let body = BodyModel::from_spec(&BodySpec::Head { resolution: 64 }, Path::new("."))
+        let body = crate::body::from_spec(&BodySpec::Head { resolution: 64 }, Path::new("."))
             .unwrap()
             .unwrap();
         let spec = |style| ProceduralHair {

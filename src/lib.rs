@@ -10,7 +10,7 @@
 //! | [`Scene`], [`LoadedScene`] | serde scene data (`scenes/*.ron`, `docs/scene-format.md`) |
 //! | [`Simulation`], [`StepStats`] | the per-step pipeline and what each step cost |
 //! | [`salon`]: [`ToolEvent`], [`ToolScript`], [`Salon`] | salon tools (water, spray, mousse, dryer, grab, scissors) driven by a replayable timeline of events |
-//! | [`BodyModel`] | the procedural head, a wrinkled torus or an OBJ, with its BVH |
+//! | [`body_from_spec`] | the scene's body (procedural head, wrinkled torus or OBJ) as a [`ssv::MeshBody`] |
 //!
 //! ```no_run
 //! use hair::{LodPolicy, Scene, Simulation};
@@ -30,7 +30,6 @@ pub use hair_io as io;
 pub use hair_lod as lod;
 pub use hair_ssv as ssv;
 
-pub mod adaptive;
 mod body;
 pub mod drivers;
 mod error;
@@ -40,7 +39,7 @@ pub mod salon;
 pub mod scene;
 mod simulation;
 
-pub use body::{BodyModel, wrinkled_torus};
+pub use body::from_spec as body_from_spec;
 pub use error::HairError;
 pub use render_geometry::RenderGeometry;
 pub use salon::{

@@ -21,7 +21,6 @@
 //! hair is `sum over skeletons of strands * wetness`, the same on every front. See `docs/salon.md`.
 
 use crate::HairError;
-use crate::body::BodyModel;
 use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
 use hair_dynamics::{
     Bond, CutPoint, HeadMotion, NodeCorrection, Point, Real, SkeletonId, StrandState, Vector,
@@ -29,6 +28,7 @@ use hair_dynamics::{
 };
 use hair_grid::{Cone, Grid, InfluenceVolume, Section};
 use hair_lod::Hierarchy;
+use hair_ssv::MeshBody;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -535,7 +535,7 @@ pub(crate) struct SalonInput<'a> {
     pub front: &'a [u32],
     pub grid: &'a Grid,
     pub sections: &'a [Section],
-    pub body: Option<&'a BodyModel>,
+    pub body: Option<&'a MeshBody>,
     pub head: &'a HeadMotion,
     /// Simulated time at the end of the step (s).
     pub time: Real,

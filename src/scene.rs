@@ -28,13 +28,13 @@ pub struct Scene {
     /// Strand material and integrator.
     pub dynamics: DynamicsSpec,
     /// Collision settings.
-    pub collision: CollisionSpec,
+    pub collision: CollisionSettings,
     /// Level-of-detail policy.
     pub lod: LodPolicy,
     /// How strands are grouped into the strip / cluster / strand-group hierarchy.
     pub hierarchy: HierarchySpec,
     /// When the `adaptive` policy asks for detail.
-    pub adaptive: AdaptiveSpec,
+    pub adaptive: AdaptiveSettings,
     /// Whether dormant regions stop being integrated (salon paper §4.3).
     pub localization: bool,
     /// Camera path.
@@ -61,10 +61,10 @@ impl Default for Scene {
             body: BodySpec::default(),
             hairstyle: HairstyleSpec::default(),
             dynamics: DynamicsSpec::default(),
-            collision: CollisionSpec::default(),
+            collision: CollisionSettings::default(),
             lod: LodPolicy::Fine,
             hierarchy: HierarchySpec::default(),
-            adaptive: AdaptiveSpec::default(),
+            adaptive: AdaptiveSettings::default(),
             localization: false,
             camera: CameraSpec::default(),
             light: LightSpec::default(),
@@ -129,39 +129,7 @@ impl HierarchySpec {
     }
 }
 
-/// When the `adaptive` LOD policy asks for detail (Ward & Lin §6.1): the level a node wants
-/// rises as it gets nearer the camera or moves faster; hair the camera cannot see collapses to
-/// its root strip and is not drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct AdaptiveSpec {
-    /// Nearer than this the finest level (m).
-    pub distance_finest: f32,
-    /// Farther than this the coarsest level (m).
-    pub distance_coarsest: f32,
-    /// Slower than this asks for the coarsest level (m/s).
-    pub speed_coarsest: f32,
-    /// Faster than this asks for the finest level (m/s).
-    pub speed_finest: f32,
-    /// Children within this distance of their parent merge (m).
-    pub merge_distance: f32,
-    /// Whether hair hidden from the camera (behind the body or outside the view) collapses.
-    pub cull_hidden: bool,
-}
-
-impl Default for AdaptiveSpec {
-    fn default() -> Self {
-        let s = hair_lod::SelectParams::default();
-        Self {
-            distance_finest: s.distance_finest,
-            distance_coarsest: s.distance_coarsest,
-            speed_coarsest: s.speed_coarsest,
-            speed_finest: s.speed_finest,
-            merge_distance: hair_lod::MergeParams::default().merge_distance,
-            cull_hidden: true,
-        }
-    }
-}
+pub use hair_lod::AdaptiveSettings;
 
 /// The body.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -368,77 +336,8 @@ pub enum TorqueSpec {
     Chain,
 }
 
-/// Collision settings.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CollisionSpec {
-    /// Hair-object method: `Field` (signed distances sampled from the BVH, interpolated),
-    /// `Bvh` (exact, the SSV BVH) or `Maps` (Kurihara's cylinder/sphere tables; the
-    /// procedural head only).
-    pub method: CollisionMethod,
-    /// Coulomb friction against the body, in [0, 1].
-    pub friction: f32,
-    /// Whether hair collides with hair.
-    pub hair_hair: bool,
-    /// Hair-hair pairs closer than this angle (rad) are treated as parallel: they share velocity.
-    pub parallel_angle: f32,
-    /// How a node combines the pushes of the hair-hair pairs it is in.
-    pub hair_hair_push: PushCombine,
-    /// Steps from one hair-hair pair search to the next (at least 1): in between, the pairs the
-    /// last search found are tested again at the new positions, and pairs that have come
-    /// together since are missed until the next search. 1 searches every step.
-    pub pair_search_interval: u32,
-    /// The penetration tolerated after the hard constraint (m).
-    pub tolerance: f32,
-    /// Steps of the depenetration ramp: in them each pass of the hard constraint moves a node
-    /// `1 / (steps left)` of its depth (the passes compound, so a deep node comes out over
-    /// several passes, most of the way in the first step).
-    pub depenetration_steps: u32,
-}
-
-impl Default for CollisionSpec {
-    fn default() -> Self {
-        Self {
-            method: CollisionMethod::Field,
-            friction: 0.3,
-            hair_hair: true,
-            parallel_angle: 0.3,
-            hair_hair_push: PushCombine::Mean,
-            pair_search_interval: 1,
-            tolerance: 1e-3,
-            depenetration_steps: 10,
-        }
-    }
-}
-
-/// How a node combines the pushes of its overlapping hair-hair pairs; each pair asks for its
-/// two sections to move apart by half their overlap each.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum PushCombine {
-    /// The node moves by the sum of its pairs' pushes. A wisp in dense hair overlaps dozens of
-    /// others (about 40 on `wardlin`), and each pair's push alone separates that pair: summed,
-    /// they overshoot by up to the number of pairs, which makes the hair far more sensitive to
-    /// its initial state. On `wardlin`, runs whose gravity differs by one part in a million end
-    /// 29.8 mm RMS apart with `Sum` and 0.9 mm with `Mean` (`hair study`'s
-    /// `chaos_floor_rms_mm`), and the hair keeps gaining kinetic energy in a steady wind.
-    Sum,
-    /// The node moves by their mean (the default): a Jacobi average of what its pairs ask. Dense
-    /// hair then overlaps more (about twice the contacts on `wardlin`) but settles.
-    #[default]
-    Mean,
-}
-
-/// Hair-object collision method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum CollisionMethod {
-    /// Signed distances sampled from the exact query on a grid a few millimetres apart and
-    /// interpolated trilinearly (the fast default; its error is measured at load).
-    Field,
-    /// Exact distances through the SSV BVH of the body mesh.
-    Bvh,
-    /// Cylinder and sphere tables (Kurihara et al. §3.1).
-    Maps,
-}
+pub use hair_collide::{CollisionSettings, PushCombine};
+pub use hair_ssv::CollisionMethod;
 
 /// Level-of-detail policies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -775,18 +674,13 @@ impl Scene {
         non_negative("dynamics.tip_damping_ratio", d.tip_damping_ratio)?;
         positive("dynamics.radius", d.radius)?;
         finite("dynamics.gravity", &d.gravity)?;
-        let c = &self.collision;
-        if !(c.friction.is_finite() && (0.0..=1.0).contains(&c.friction)) {
-            return Err(bad("collision.friction", "must be in [0, 1]"));
-        }
-        non_negative("collision.parallel_angle", c.parallel_angle)?;
-        if c.pair_search_interval == 0 {
-            return Err(bad(
-                "collision.pair_search_interval",
-                "must be at least 1 (1 searches every step)",
-            ));
-        }
-        positive("collision.tolerance", c.tolerance)?;
+        self.collision
+            .validate()
+            .map_err(|e| HairError::SceneValue {
+                file: file.to_string(),
+                field: format!("collision.{}", e.field),
+                message: e.message,
+            })?;
         if self.camera.keys.is_empty() {
             return Err(bad("camera.keys", "needs at least one keyframe"));
         }

@@ -4,20 +4,22 @@
 //! The hard constraint runs after integration rather than before it, so the state handed to the
 //! renderer and to the next step is never inside the body by more than the stated tolerance.
 
-use crate::adaptive::{AdaptiveLod, BodyDepth, View};
-use crate::body::BodyModel;
 use crate::render_geometry::{
     RenderGeometry, catmull_rom_into, transport_frames, transport_frames_into,
 };
-use crate::scene::{CollisionMethod, IntegratorSpec, LodPolicy, Scene, TorqueSpec};
+use crate::scene::{IntegratorSpec, LodPolicy, Scene, TorqueSpec};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
+use hair_collide::{BodyConstraint, HairPairs, Localization, Sections};
 use hair_dynamics::{
-    Environment, Integrator, LinearSolver, Material, NodeCorrection, SkeletonId, StepSettings,
-    StrandState, TorqueModel, VelocityConstraint, Wind,
+    Environment, Integrator, LinearSolver, Material, SkeletonId, StepSettings, StrandState,
+    TorqueModel, Wind,
 };
-use hair_grid::{Activity, ActivityConfig, ActivityInput, Grid, GridConfig, PairSet, Section};
-use hair_lod::{Hierarchy, HierarchyParams, NodeKind, TransitionReport};
-use hair_ssv::{Lss, Point, Real, Ssv, Vector};
+use hair_grid::{Grid, GridConfig};
+use hair_lod::{
+    AdaptiveLod, BodyDepth, Hierarchy, HierarchyParams, NodeKind, OccluderMesh, TransitionReport,
+    View,
+};
+use hair_ssv::{MeshBody, Point, Real, Vector};
 use nalgebra::{Isometry3, Matrix3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -88,47 +90,16 @@ pub struct Simulation {
     hierarchy: Hierarchy,
     front_nodes: Vec<u32>,
     state: StrandState,
-    body: Option<BodyModel>,
+    body: Option<MeshBody>,
     settings: StepSettings,
     time: Real,
     steps: u64,
     grid: Grid,
-    sections: Vec<Section>,
-    section_node: Vec<u32>,
-    pairs: PairSet,
-    activity: Activity,
-    speeds: Vec<Real>,
-    /// Node positions at the end of the previous step (localization measures motion by them).
-    previous_positions: Vec<Point>,
-    frozen_skeleton: Vec<bool>,
-    corrections: Vec<NodeCorrection>,
-    /// Hair-hair pushes per node: their sum and their number (zero between steps).
-    node_push: Vec<(Vector, u32)>,
-    constraints: Vec<VelocityConstraint>,
-    /// The sections as the hair-hair response reads them, one cache line each.
-    contact_sections: Vec<ContactSection>,
-    /// The hair-hair narrow phase's decisions, one buffer per chunk of the pair set.
-    responses: Vec<ResponseChunk>,
-    /// Chunks of `responses` whose `kept` pairs the steps between pair searches test
-    /// (`collision.pair_search_interval`), and the steps since they were found; `None` when
-    /// there are none to reuse (a new front, a reset, a tool script).
-    kept_pairs: Option<(usize, u32)>,
-    body_nodes: Vec<BodyNode>,
-    /// Per skeleton, the first node the hard constraint moved in this pass (`u32::MAX`: none).
-    first_moved: Vec<u32>,
-    body_hits: Vec<Option<(Real, Vector)>>,
-    /// The hard constraint's sweeps: the chains of this pass and the next (`[skeleton, first
-    /// node asked]`, by skeleton), per skeleton its radius, the first node each chain moved,
-    /// the chains of the first pass, and per node what its last test found.
-    sweep_chains: Vec<[u32; 2]>,
-    sweep_next: Vec<[u32; 2]>,
-    sweep_radius: Vec<Real>,
-    sweep_moved: Vec<u32>,
-    swept: Vec<[u32; 2]>,
-    sweep_hits: Vec<SweepHit>,
-    /// Per node, during the depenetration ramp: how far its sphere may still reach into the
-    /// body at the end of this step (m).
-    allowance: Vec<Real>,
+    /// The front's segments as grid sections.
+    sections: Sections,
+    localization: Localization,
+    hair_pairs: HairPairs,
+    body_constraint: BodyConstraint,
     render: RenderGeometry,
     strand_node: Vec<u32>,
     /// Transport frames of the front skeletons' nodes, by global node index.
@@ -210,7 +181,7 @@ impl Simulation {
     /// Builds the simulation of a loaded scene with a LOD policy.
     pub fn new(loaded: &LoadedScene, policy: LodPolicy) -> Result<Self, HairError> {
         let scene = loaded.scene.clone();
-        let body = BodyModel::from_spec(&scene.body, &loaded.base_dir)?;
+        let body = crate::body::from_spec(&scene.body, &loaded.base_dir)?;
         let style = hairstyle::from_spec(&scene.hairstyle, scene.seed, &loaded.base_dir)?;
         let params = hierarchy_params(&scene);
         let hierarchy = Hierarchy::build(&style, &params).map_err(|e| HairError::SceneValue {
@@ -291,29 +262,10 @@ impl Simulation {
             time: 0.0,
             steps: 0,
             grid: Grid::new(GridConfig::default()),
-            sections: Vec::new(),
-            section_node: Vec::new(),
-            pairs: PairSet::new(),
-            activity: Activity::new(ActivityConfig::default()),
-            speeds: Vec::new(),
-            previous_positions: Vec::new(),
-            frozen_skeleton: Vec::new(),
-            corrections: Vec::new(),
-            node_push: Vec::new(),
-            constraints: Vec::new(),
-            contact_sections: Vec::new(),
-            responses: Vec::new(),
-            kept_pairs: None,
-            body_nodes: Vec::new(),
-            first_moved: Vec::new(),
-            body_hits: Vec::new(),
-            sweep_chains: Vec::new(),
-            sweep_next: Vec::new(),
-            sweep_radius: Vec::new(),
-            sweep_moved: Vec::new(),
-            swept: Vec::new(),
-            sweep_hits: Vec::new(),
-            allowance: Vec::new(),
+            sections: Sections::default(),
+            localization: Localization::default(),
+            hair_pairs: HairPairs::new(),
+            body_constraint: BodyConstraint::new(),
             render: RenderGeometry {
                 subdivisions: 3,
                 ..RenderGeometry::default()
@@ -349,7 +301,7 @@ impl Simulation {
         );
         sim.prepare_render();
         if policy == LodPolicy::Adaptive {
-            let mut lod = AdaptiveLod::new(&sim.hierarchy, &sim.scene.adaptive)?;
+            let mut lod = AdaptiveLod::new(&sim.hierarchy, &sim.scene.adaptive);
             for n in 0..sim.hierarchy.node_count() as u32 {
                 sim.state
                     .set_active(SkeletonId(n), lod.front().is_active(n));
@@ -461,7 +413,7 @@ impl Simulation {
     }
 
     /// Computes ahead the samples of the body's distance field that hair near the surface
-    /// reads (`DistanceField::fill_band` on [`BodyModel::field`]): from [`PREFILL_INSIDE`] inside
+    /// reads (`DistanceField::fill_band` on [`MeshBody::field`]): from [`PREFILL_INSIDE`] inside
     /// the surface to the near field's margin outside. The steps otherwise compute each the
     /// first time hair reaches it. Returns how many it computed. For interactive use: it moves
     /// the exact queries out of the first frames, which otherwise run slow (`hair run wardlin
@@ -476,11 +428,11 @@ impl Simulation {
         // as hair that starts in the body reaches, by and large (deeper samples still come
         // when first read).
         body.field
-            .fill_band(body, PREFILL_INSIDE, crate::body::NEAR_MARGIN)
+            .fill_band(body, PREFILL_INSIDE, hair_ssv::NEAR_MARGIN)
     }
 
     /// The body, if any.
-    pub fn body(&self) -> Option<&BodyModel> {
+    pub fn body(&self) -> Option<&MeshBody> {
         self.body.as_ref()
     }
 
@@ -569,7 +521,7 @@ impl Simulation {
         // The step's image when it holds this view (`build` then keeps it), else a new one.
         let mut depth = self.body_depth.clone();
         if let Some(body) = &self.body {
-            depth.build(body, &view);
+            depth.build(occluder(body), &view);
             view.occluder = Some(&depth);
         }
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
@@ -601,10 +553,8 @@ impl Simulation {
         self.state.clone_from(&self.initial);
         self.time = 0.0;
         self.steps = 0;
-        self.kept_pairs = None;
-        self.activity.clear();
-        self.frozen_skeleton.clear();
-        self.previous_positions.clear();
+        self.hair_pairs.forget();
+        self.localization.clear();
         self.accumulator = 0.0;
         self.frame_render.positions.clear();
         if let Some(lod) = &self.initial_adaptive {
@@ -685,7 +635,7 @@ impl Simulation {
     /// The active front of the adaptive policy as a sorted node list, and the strands' owners.
     fn refresh_front(&mut self) {
         // Other skeletons, other sections: the kept pairs no longer describe the hair.
-        self.kept_pairs = None;
+        self.hair_pairs.forget();
         if let Some(lod) = &self.adaptive {
             self.front_nodes.clear();
             self.front_nodes.extend(
@@ -755,14 +705,14 @@ impl Simulation {
         if let Some(mut lod) = self.adaptive.take() {
             let mut view = self.view(self.time);
             if let (Some(body), true) = (&self.body, self.scene.adaptive.cull_hidden) {
-                self.body_depth.build(body, &view);
+                self.body_depth.build(occluder(body), &view);
                 view.occluder = Some(&self.body_depth);
             }
             let result = lod.update(
                 &self.hierarchy,
                 &mut self.state,
                 &view,
-                &self.frozen_skeleton,
+                self.localization.frozen(),
             );
             self.last_lod = lod.last_report();
             self.adaptive = Some(lod);
@@ -778,160 +728,41 @@ impl Simulation {
             stats.lod_hidden_trees = lod.hidden_trees(&self.hierarchy);
         }
 
-        // 3. Grid over the front's segments (head frame, where the body is static).
-        self.build_sections();
-        // The pairs of the last search, tested again while they are young enough and the hair
-        // is the same hair: no tool has acted (a cut, a bond) and the front is the same (a new
-        // front drops them above).
-        let interval = self.scene.collision.pair_search_interval.max(1);
-        let reuse = match self.kept_pairs {
-            Some((chunks, age))
-                if self.scene.collision.hair_hair
-                    && age + 1 < interval
-                    && self.salon.script().events.is_empty() =>
-            {
-                Some((chunks, age + 1))
-            }
-            _ => None,
-        };
+        // 3. Grid over the front's segments (head frame, where the body is static). The pairs
+        // of the last search are tested again while they are young enough and the hair is the
+        // same hair: no tool script (a cut, a bond) and the same front.
+        self.sections.build(&self.state, &self.front_nodes);
+        let collision = &self.scene.collision;
+        let search = self
+            .hair_pairs
+            .plan(collision, self.salon.script().events.is_empty());
         // Between searches nothing else reads the grid unless localization measures activity
         // (the salon's tools would, but a tool script always searches).
-        if reuse.is_none() || self.scene.localization {
-            self.grid.rebuild(&self.sections)?;
+        if search || self.scene.localization {
+            self.grid.rebuild(&self.sections.sections)?;
         }
-        // Localization: sections frozen when every cell they cover has been quiet.
         if self.scene.localization {
-            // Motion is measured by how far nodes moved over the last step, not by their
-            // velocity: a node resting on the body keeps a velocity into it that the push-out
-            // cancels every step, and hair lying still must not count as moving.
-            self.speeds.clear();
-            let p = self.state.positions();
-            if self.previous_positions.len() == p.len() {
-                let (before, inv_dt) = (&self.previous_positions, 1.0 / self.settings.dt);
-                self.speeds.extend(self.section_node.iter().map(|&i| {
-                    let i = i as usize;
-                    (p[i] - before[i])
-                        .norm()
-                        .max((p[i - 1] - before[i - 1]).norm())
-                        * inv_dt
-                }));
-            } else {
-                let v = self.state.velocities();
-                self.speeds.extend(
-                    self.section_node
-                        .iter()
-                        .map(|&i| v[i as usize].norm().max(v[i as usize - 1].norm())),
-                );
-            }
-            self.activity.update(
+            self.localization.update(
+                &mut self.state,
                 &self.grid,
-                &ActivityInput {
-                    dt: self.settings.dt,
-                    speeds: &self.speeds,
-                    neighbour_forces: &[],
-                    // salon (issue 8): the pressed tools' areas wake their cells.
-                    tools: self.salon.volumes(),
-                },
+                &self.sections,
+                &self.front_nodes,
+                self.settings.dt,
+                self.salon.volumes(),
             )?;
-            self.frozen_skeleton.clear();
-            self.frozen_skeleton
-                .resize(self.hierarchy.node_count(), true);
-            for (sec, frozen) in self.activity.frozen().iter().enumerate() {
-                if !frozen {
-                    self.frozen_skeleton[self.sections[sec].skeleton as usize] = false;
-                }
-            }
-            for &node in &self.front_nodes {
-                let id = SkeletonId(node);
-                let active = !self.frozen_skeleton[node as usize];
-                if !active && self.state.is_active(id) {
-                    // Frozen at rest: it wakes with no motion, not with the velocity into
-                    // the body it had while resting there.
-                    let r = self.state.nodes(id);
-                    self.state.omega_theta_mut()[r.clone()].fill(0.0);
-                    self.state.omega_phi_mut()[r].fill(0.0);
-                    self.state.refresh_positions(id);
-                }
-                self.state.set_active(id, active);
-            }
         }
         let t3 = Instant::now();
         stats.ms_grid = ms(t2, t3);
 
-        // 4. Hair-hair (soft): push overlapping sections apart by half the overlap each; let
-        // near-parallel ones share their velocity instead.
-        if self.scene.collision.hair_hair {
-            let cos_parallel = self.scene.collision.parallel_angle.cos();
-            let chunks = if let Some((chunks, age)) = reuse {
-                self.kept_pairs = Some((chunks, age));
-                let state = &self.state;
-                let (p, radius) = (state.positions(), state.radius());
-                self.responses[..chunks]
-                    .par_iter_mut()
-                    .for_each(|out| out.retest(state, p, radius, cos_parallel));
-                stats.pairs_tested = self.responses[..chunks].iter().map(|r| r.kept.len()).sum();
-                chunks
-            } else {
-                self.search_hair_pairs(cos_parallel, interval > 1);
-                stats.pairs_tested = self.pairs.len();
-                let chunks = self.pairs.chunk_count();
-                self.kept_pairs = (interval > 1).then_some((chunks, 0));
-                chunks
-            };
-            let responses = &self.responses[..chunks];
-            stats.hair_contacts += responses
-                .iter()
-                .map(|r| r.shares.len() + r.pushes.len())
-                .sum::<usize>();
-            self.corrections.clear();
-            self.node_push
-                .resize(self.state.node_count(), (Vector::zeros(), 0));
-            // Shares change only the rates and pushes only the push sums: each kind applied in
-            // pair order, the two side by side, gives the state of applying them interleaved.
-            let (theta, phi) = self.state.rates_mut();
-            let node_push = &mut self.node_push;
-            rayon::join(
-                || {
-                    for &[a, b] in responses.iter().flat_map(|r| &r.shares) {
-                        // The mean never raises the sum of squared rates: no energy is added.
-                        let (a, b) = (a as usize, b as usize);
-                        let mean_t = 0.5 * (theta[a] + theta[b]);
-                        let mean_p = 0.5 * (phi[a] + phi[b]);
-                        theta[a] = mean_t;
-                        theta[b] = mean_t;
-                        phi[a] = mean_p;
-                        phi[b] = mean_p;
-                    }
-                },
-                || {
-                    for &(a, b, half) in responses.iter().flat_map(|r| &r.pushes) {
-                        let (a, b) = (a as usize, b as usize);
-                        node_push[a].0 -= half;
-                        node_push[a].1 += 1;
-                        node_push[b].0 += half;
-                        node_push[b].1 += 1;
-                    }
-                },
-            );
-            // One correction per pushed node (a section has dozens of neighbours in dense hair):
-            // its pairs' pushes summed in pair order, or their mean (`PushCombine`).
-            let mean = self.scene.collision.hair_hair_push == crate::scene::PushCombine::Mean;
-            for (node, entry) in self.node_push.iter_mut().enumerate() {
-                let (push, pushes) = std::mem::replace(entry, (Vector::zeros(), 0));
-                if push != Vector::zeros() {
-                    let delta = if mean {
-                        push / pushes.max(1) as Real
-                    } else {
-                        push
-                    };
-                    self.corrections.push(NodeCorrection {
-                        node: node as u32,
-                        delta,
-                    });
-                }
-            }
-            self.state.apply_corrections(&self.corrections)?;
-        }
+        // 4. Hair-hair (soft).
+        let report = self.hair_pairs.respond(
+            &mut self.state,
+            &self.grid,
+            &self.sections,
+            &self.scene.collision,
+        )?;
+        stats.pairs_tested = report.pairs_tested;
+        stats.hair_contacts = report.contacts;
         let t4 = Instant::now();
         stats.ms_hair_hair = ms(t3, t4);
 
@@ -953,7 +784,7 @@ impl Simulation {
                 hierarchy: &self.hierarchy,
                 front: &self.front_nodes,
                 grid: &self.grid,
-                sections: &self.sections,
+                sections: &self.sections.sections,
                 body: self.body.as_ref(),
                 head: &env.head,
                 time: self.time + self.settings.dt,
@@ -966,18 +797,24 @@ impl Simulation {
         stats.ms_dynamics = ms(t4, t5);
 
         // 6. Hair-object (hard).
-        let (contacts, depth) = self.collide_body()?;
-        stats.body_contacts = contacts;
-        stats.max_penetration_m = f64::from(depth);
+        if let Some(body) = &self.body {
+            let report = self.body_constraint.apply(
+                &mut self.state,
+                body,
+                &self.front_nodes,
+                self.steps,
+                &self.scene.collision,
+            )?;
+            stats.body_contacts = report.contacts;
+            stats.max_penetration_m = f64::from(report.max_penetration);
+        }
         let t6 = Instant::now();
         stats.ms_hair_object = ms(t5, t6);
 
         self.time += self.settings.dt;
         self.steps += 1;
         if self.scene.localization {
-            self.previous_positions.clear();
-            self.previous_positions
-                .extend_from_slice(self.state.positions());
+            self.localization.record_positions(&self.state);
         }
 
         // 7. Render geometry. A finite state can still be too far out to draw (hair thrown
@@ -1007,443 +844,6 @@ impl Simulation {
         stats.state_hash = self.state_hash();
         stats.ms_total = ms(t0, Instant::now());
         Ok(stats)
-    }
-
-    /// The front's segments as grid sections, each with its end node (`section_node`).
-    fn build_sections(&mut self) {
-        self.sections.clear();
-        self.section_node.clear();
-        let (p, radius) = (self.state.positions(), self.state.radius());
-        for &node in &self.front_nodes {
-            let r = self.state.nodes(SkeletonId(node));
-            // salon (issue 8): per-node radius (water thins, mousse thickens).
-            for (k, i) in (r.start + 1..r.end).enumerate() {
-                self.sections.push(Section {
-                    skeleton: node,
-                    segment: k as u32,
-                    shape: Ssv::Line(Lss::new(p[i - 1], p[i], radius[i].max(radius[i - 1]))),
-                });
-                self.section_node.push(i as u32);
-            }
-        }
-    }
-
-    /// The hair-hair pair search and narrow phase, into `self.responses` chunk by chunk of the
-    /// pair set; with `keep`, each chunk also keeps its pairs of segments (by end node) for
-    /// [`ResponseChunk::retest`] on the steps until the next search.
-    fn search_hair_pairs(&mut self, cos_parallel: Real, keep: bool) {
-        self.grid.overlapping_pairs_by_rank(&mut self.pairs);
-        // In the pair search's order, so that the pairs, which come cell by cell, read
-        // nearby records.
-        let (state, sections, nodes) = (&self.state, &self.sections, &self.section_node);
-        self.grid
-            .search_order()
-            .par_iter()
-            .map(|&i| {
-                let (s, i) = (&sections[i as usize], i as usize);
-                // Every section built above is a segment; any other shape gets no response.
-                let (line, segment) = match s.shape {
-                    Ssv::Line(l) => (l, true),
-                    _ => (Lss::new(Point::origin(), Point::origin(), 0.0), false),
-                };
-                ContactSection {
-                    a: line.a,
-                    b: line.b,
-                    radius: line.radius,
-                    tangent: (line.b - line.a)
-                        .try_normalize(0.0)
-                        .unwrap_or_else(Vector::zeros),
-                    node: nodes[i],
-                    active: state.is_active(SkeletonId(s.skeleton)),
-                    segment,
-                }
-            })
-            .collect_into_vec(&mut self.contact_sections);
-        // The narrow phase, chunk by chunk of the pair set (its chunks do not depend on the
-        // thread count), into short records: the shares' two nodes, the pushes' nodes and
-        // vector.
-        let chunks = self.pairs.chunk_count();
-        if self.responses.len() < chunks {
-            self.responses.resize_with(chunks, ResponseChunk::default);
-        }
-        let (pairs, sections) = (&self.pairs, &self.contact_sections);
-        self.responses[..chunks]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                out.shares.clear();
-                out.pushes.clear();
-                out.kept.clear();
-                for &[a, b] in pairs.chunk(chunk) {
-                    let (sa, sb) = (&sections[a as usize], &sections[b as usize]);
-                    if keep && sa.segment && sb.segment {
-                        out.kept.push([sa.node, sb.node]);
-                    }
-                    if !(sa.segment && sb.segment && (sa.active || sb.active)) {
-                        continue;
-                    }
-                    if sa.tangent.dot(&sb.tangent).abs() >= cos_parallel {
-                        out.shares.push([sa.node, sb.node]);
-                        continue;
-                    }
-                    let c = hair_ssv::query::segment_segment(&sa.a, &sa.b, &sb.a, &sb.b);
-                    let d = c.on_b - c.on_a;
-                    let dist = d.norm();
-                    let overlap = sa.radius + sb.radius - dist;
-                    if overlap > 0.0 && dist > 1e-9 {
-                        out.pushes
-                            .push((sa.node, sb.node, d * (0.5 * overlap / dist)));
-                    }
-                }
-            });
-    }
-
-    /// The hard constraint (Kurihara et al. §4's reaction constraint, made positional): every
-    /// front node closer to the body than its radius is moved out along the body's normal and
-    /// loses its velocity into the body, with friction. The node stays on the sphere about the
-    /// node before it, so a segment hanging straight into a surface swings out of it instead of
-    /// being re-aimed along itself ([`body_target`]).
-    ///
-    /// After the ramp (below) the regular passes are sweeps ([`StrandState::sweep_chains`]):
-    /// each skeleton root to tip, in parallel over skeletons, every node tested where the
-    /// corrections before it on its skeleton put it, so that one sweep resolves a whole chain
-    /// where a pass over every node at once found the nodes after each corrected one pushed in
-    /// again by its refit. A corrected node's target is tested and moved again while still
-    /// inside, up to [`SWEEP_RETESTS`] times; the skeletons with a corrected node left
-    /// unconfirmed are swept again from their first such node, up to [`BODY_PASSES`] sweeps.
-    ///
-    /// Hair that starts inside the body (at the first step, or the first after a reset) comes
-    /// out linearly over the first `depenetration_steps` steps (the ramp): at the end of ramp
-    /// step `k` a node may still reach `(ramp - k - 1) / (ramp - k)` of the way it reached at the
-    /// start of that step, and never more than it was allowed the step before, so whatever
-    /// pushes it back in, it is held to the ramp; a node next to one still allowed inside is
-    /// allowed that, less the segment between them. Every other node, including one that
-    /// reaches the body during the ramp, is resolved at once. On the ramp the passes test every
-    /// node where the last pass left it (the allowances are set on the first), refit the
-    /// skeletons they moved, and repeat on them until no node is deeper than the skin
-    /// ([`CONTACT_SKIN`] of the tolerance) beyond its allowance, or [`BODY_PASSES`] have run.
-    ///
-    /// Late passes, from [`BODY_PASSES`] on (on the ramp, or for the skeletons the sweeps left
-    /// moving), run until no node is deeper than half the tolerance beyond its allowance or
-    /// [`MAX_BODY_PASSES`] have run. They use the exact distance, whatever the scene's method,
-    /// once at most [`EXACT_LATE_NODES`] nodes are left; after the ramp they send a node whose
-    /// centre is still inside by more than half the tolerance to the nearest point of its
-    /// sphere about its parent that clears the body ([`escape`]): lifting along the node's own
-    /// normal can land it inside again where the body is thin (an ear) or creased, pass after
-    /// pass. The contacts of every pass lose their approach velocity once, after the last pass.
-    /// Returns the nodes in contact on the first pass and the deepest node centre left inside
-    /// the body (m), each node counted where it was last tested.
-    ///
-    /// The sweeps replaced passes over every node at once (the queries in parallel, the
-    /// corrections gathered in order, the moved skeletons refitted after). With
-    /// `--lod fine --prefill-field`, alternated runs of 66cab18 and e682da2 (each built with
-    /// `cargo build --release -p hair-cli`), the stage's median frame went from
-    /// 80.6-81.0 ms to 54.5-55.8 ms on `scenes/strands10k.ron` (frames 12-29, two rounds) and
-    /// from 4.26-4.31 ms to 3.34-3.50 ms on `wardlin` (frames 10-59, three rounds). Measured
-    /// and dropped before that: computing the passes' targets ahead in parallel, with the loop
-    /// only gathering them (on `strands10k` the first pass took 9.5 ms for both parts against
-    /// 8.1 ms for the serial loop alone); the first pass's queries in the grid's search order
-    /// (on `wardlin`, 1.28-1.34 ms against 1.20-1.23 ms): the queries wait on arithmetic, not
-    /// on memory.
-    fn collide_body(&mut self) -> Result<(usize, Real), HairError> {
-        let Some(body) = self.body.as_ref() else {
-            return Ok((0, 0.0));
-        };
-        let ramp = self.scene.collision.depenetration_steps as u64;
-        // The share of its reach into the body a node that started inside may keep at the end
-        // of this ramp step (see above).
-        let in_ramp = self.steps < ramp;
-        let keep = if in_ramp {
-            (ramp - self.steps - 1) as Real / (ramp - self.steps) as Real
-        } else {
-            0.0
-        };
-        if self.steps == 0 {
-            // The allowances start from the depths read on the first pass below (a root the
-            // constraint does not move is allowed nothing).
-            self.allowance.clear();
-            self.allowance.resize(self.state.positions().len(), 0.0);
-        }
-        let method = self.scene.collision.method;
-        let friction = self.scene.collision.friction;
-        let tolerance = 0.5 * self.scene.collision.tolerance;
-        // A node the last pass left within rounding of the surface is in contact but needs no
-        // refit: without this skin every pass found a few hundred nodes a few nanometres in and
-        // ran all its passes to move them by nothing.
-        let skin = CONTACT_SKIN * self.scene.collision.tolerance;
-        // The passes test positions only, so the velocity constraints of every pass wait for the
-        // last one, in pass order: one refresh of each touched skeleton instead of one a pass.
-        self.constraints.clear();
-        self.body_nodes.clear();
-        let mut contacts = 0;
-        // The deepest node centre among the nodes the sweeps left (they no longer move).
-        let mut swept_depth: Real = 0.0;
-        let first_pass = if in_ramp {
-            for &n in &self.front_nodes {
-                let id = SkeletonId(n);
-                if !self.state.is_active(id) {
-                    // Frozen by localization: it has not moved since it was last resolved.
-                    continue;
-                }
-                let from = u32::from(!self.state.is_free(id));
-                push_body_nodes(&mut self.body_nodes, &self.state, n, from);
-            }
-            0
-        } else {
-            // The regular passes as sweeps: each skeleton root to tip, every node tested where
-            // the corrections before it put it, in parallel over skeletons. One sweep leaves
-            // a skeleton with every node tested where it ends except the corrected ones (the
-            // turn onto the sphere about the parent can leave one a little inside), so the next
-            // sweep starts at each skeleton's first corrected node.
-            self.sweep_chains.clear();
-            for &n in &self.front_nodes {
-                let id = SkeletonId(n);
-                if self.state.is_active(id) {
-                    self.sweep_chains
-                        .push([n, u32::from(!self.state.is_free(id))]);
-                }
-            }
-            self.sweep_chains.sort_unstable();
-            // The sweep holds the state, so the callback reads each skeleton's radius from here.
-            let (radius, state) = (&mut self.sweep_radius, &self.state);
-            radius.clear();
-            radius.extend((0..state.skeleton_count() as u32).map(|n| {
-                let r = state.nodes(SkeletonId(n));
-                state.radius().get(r.start).copied().unwrap_or(0.0)
-            }));
-            self.swept.clone_from(&self.sweep_chains);
-            self.sweep_hits
-                .resize(self.state.node_count(), SweepHit::default());
-            for pass in 0..BODY_PASSES {
-                if self.sweep_chains.is_empty() {
-                    break;
-                }
-                self.sweep_moved.clear();
-                self.sweep_moved.resize(self.sweep_chains.len(), u32::MAX);
-                let (chains, skeleton_radius) = (&self.sweep_chains, &self.sweep_radius);
-                self.state.sweep_chains(
-                    chains,
-                    &mut self.sweep_hits,
-                    &mut self.sweep_moved,
-                    |ask, slot| {
-                        // A node a sweep before this one tested where it still is and did not
-                        // correct is not tested again.
-                        if pass > 0 && !ask.moved && !slot.corrected {
-                            slot.tested = false;
-                            return None;
-                        }
-                        let radius = skeleton_radius[chains[ask.chain][0] as usize];
-                        let inside = |p: &Point| {
-                            body.distance_within(method, p, radius)
-                                .filter(|(d, _)| *d < radius)
-                        };
-                        let hit = inside(&ask.at);
-                        *slot = SweepHit {
-                            normal: hit.map(|(_, n)| n),
-                            depth: hit.map_or(0.0, |(d, _)| -d),
-                            tested: true,
-                            corrected: false,
-                        };
-                        let (d, n) = hit?;
-                        if radius - d <= skin {
-                            return None;
-                        }
-                        // The target is tested here, and moved again while still inside, a few
-                        // times: a query costs a small part of refitting the skeleton again on
-                        // the next sweep. Where it ends untested, the next sweep tests it.
-                        let mut target =
-                            body_target(body, method, ask.at, ask.parent, &n, radius - d, radius);
-                        slot.corrected = true;
-                        for _ in 0..SWEEP_RETESTS {
-                            match inside(&target) {
-                                Some((d, n)) if radius - d > skin => {
-                                    target = body_target(
-                                        body,
-                                        method,
-                                        target,
-                                        ask.parent,
-                                        &n,
-                                        radius - d,
-                                        radius,
-                                    );
-                                }
-                                end => {
-                                    slot.depth = end.map_or(0.0, |(d, _)| -d);
-                                    slot.corrected = false;
-                                    break;
-                                }
-                            }
-                        }
-                        Some(target)
-                    },
-                )?;
-                // The contacts in chain order, then the chains to sweep again.
-                self.sweep_next.clear();
-                for (k, &[n, from]) in self.sweep_chains.iter().enumerate() {
-                    let r = self.state.nodes(SkeletonId(n));
-                    for node in r.start + from as usize..r.end {
-                        let h = &self.sweep_hits[node];
-                        if let (true, Some(normal)) = (h.tested, h.normal) {
-                            self.constraints.push(VelocityConstraint {
-                                node: node as u32,
-                                normal,
-                                friction,
-                            });
-                        }
-                    }
-                    let moved = self.sweep_moved[k];
-                    if moved != u32::MAX {
-                        self.sweep_next.push([n, moved - r.start as u32]);
-                    }
-                }
-                if pass == 0 {
-                    contacts = self.constraints.len();
-                }
-                std::mem::swap(&mut self.sweep_chains, &mut self.sweep_next);
-            }
-            // Skeletons still moving after the regular sweeps go on to the late passes below,
-            // from their first corrected node.
-            for &[n, from] in &self.sweep_chains {
-                let r = self.state.nodes(SkeletonId(n));
-                for h in &mut self.sweep_hits[r.start + from as usize..r.end] {
-                    h.depth = 0.0;
-                }
-                push_body_nodes(&mut self.body_nodes, &self.state, n, from);
-            }
-            for &[n, from] in &self.swept {
-                let r = self.state.nodes(SkeletonId(n));
-                for h in &self.sweep_hits[r.start + from as usize..r.end] {
-                    swept_depth = swept_depth.max(h.depth);
-                }
-            }
-            BODY_PASSES
-        };
-        let mut deepest: Real = 0.0;
-        // The deepest node centre among the nodes the passes stopped testing (they no longer
-        // move).
-        let mut settled: Real = 0.0;
-        for pass in first_pass..=MAX_BODY_PASSES {
-            if pass > 0 && self.body_nodes.is_empty() {
-                break;
-            }
-            let positions = self.state.positions();
-            // The late passes, once few nodes are still moving, query the exact distance: an
-            // approximate field or table can be wrong by about its spacing where the body is
-            // thinner than that, and there its gradient can send a node back and forth across
-            // the surface without ever reaching it. (With many nodes left, as when dense hair
-            // starts inside the body, exact queries would cost seconds per step.)
-            let method = if pass >= BODY_PASSES && self.body_nodes.len() <= EXACT_LATE_NODES {
-                CollisionMethod::Bvh
-            } else {
-                method
-            };
-            self.body_nodes
-                .par_iter()
-                .map(|bn| {
-                    body.distance_within(method, &positions[bn.node as usize], bn.radius)
-                        .filter(|(d, _)| *d < bn.radius)
-                })
-                .collect_into_vec(&mut self.body_hits);
-            self.corrections.clear();
-            deepest = 0.0;
-            // The deepest node centre beyond what the ramp allows it: the passes stop when it is
-            // out.
-            let mut deepest_free: Real = 0.0;
-            // Nodes sent to [`escape`] this pass (each costs up to a few hundred exact queries).
-            let mut escapes = 0;
-            self.first_moved.clear();
-            self.first_moved
-                .resize(self.state.skeleton_count(), u32::MAX);
-            for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
-                let node = bn.node as usize;
-                if in_ramp && pass == 0 && node < self.allowance.len() {
-                    let reach = hit.map_or(0.0, |(d, _)| (bn.radius - d).max(0.0));
-                    let before = if self.steps == 0 {
-                        reach
-                    } else {
-                        self.allowance[node].min(reach)
-                    };
-                    let mut a = before * keep;
-                    // A node next to one still allowed inside may be held inside by it, less
-                    // the segment between them (its sphere about that node reaches no farther
-                    // out). The nodes of a skeleton come root first, so the one before is done.
-                    if let Some(&b) = self.allowance.get(bn.prev as usize) {
-                        let len = (positions[node] - positions[bn.prev as usize]).norm();
-                        a = a.max(b - len);
-                    }
-                    self.allowance[node] = a;
-                }
-                let Some((d, n)) = hit else { continue };
-                deepest = deepest.max(-d);
-                self.constraints.push(VelocityConstraint {
-                    node: bn.node,
-                    normal: *n,
-                    friction,
-                });
-                let allowed = if in_ramp {
-                    self.allowance.get(node).copied().unwrap_or(0.0)
-                } else {
-                    0.0
-                };
-                let ramped = allowed > 0.0;
-                let lift = bn.radius - d - allowed;
-                if lift <= skin {
-                    // In contact but out as far as it needs to be: only its approach is
-                    // removed.
-                    continue;
-                }
-                deepest_free = deepest_free.max(-d - allowed);
-                let p = positions[bn.node as usize];
-                let parent = (bn.prev != u32::MAX).then(|| positions[bn.prev as usize]);
-                // After the ramp, a node still inside after the regular passes is caught where
-                // lifting along its own normal lands in the body again (a thin part such as an
-                // ear, or a crease): it goes to the nearest place on its sphere that clears.
-                let stuck = parent.is_some_and(|a| (p - a).norm() > 1e-9)
-                    && !ramped
-                    && pass >= BODY_PASSES
-                    && -d > tolerance
-                    && escapes < EXACT_LATE_NODES;
-                escapes += usize::from(stuck);
-                let target = match parent {
-                    Some(a) if stuck => {
-                        let len = (p - a).norm();
-                        escape(body, a, (p - a) / len, len, bn.radius, -d).unwrap_or(p + n * lift)
-                    }
-                    _ => body_target(body, method, p, parent.as_ref(), n, lift, bn.radius),
-                };
-                self.corrections.push(NodeCorrection {
-                    node: bn.node,
-                    delta: target - p,
-                });
-                let first = &mut self.first_moved[bn.skeleton as usize];
-                *first = (*first).min(bn.node);
-            }
-            if pass == 0 {
-                contacts = self.constraints.len();
-            }
-            let done = self.corrections.is_empty()
-                || pass == MAX_BODY_PASSES
-                || (pass >= BODY_PASSES && deepest_free <= tolerance);
-            if done {
-                break;
-            }
-            self.state.apply_corrections(&self.corrections)?;
-            // The refit moves a skeleton's nodes from its first corrected one on; the nodes
-            // before it stay where this pass found them: out of the body, or (on the ramp)
-            // within their allowance, which the depth reported at the end still counts.
-            let (first_moved, mut hits) = (&self.first_moved, self.body_hits.iter());
-            self.body_nodes.retain(|bn| {
-                let moved = bn.node >= first_moved[bn.skeleton as usize];
-                if let (false, Some(Some((d, _)))) = (moved, hits.next()) {
-                    settled = settled.max(-d);
-                }
-                moved
-            });
-        }
-        if !self.constraints.is_empty() {
-            self.state.apply_velocity_constraints(&self.constraints)?;
-        }
-        Ok((contacts, deepest.max(settled).max(swept_depth).max(0.0)))
     }
 
     /// Kinetic energy of the front's nodes (J, head frame).
@@ -1606,313 +1006,16 @@ fn fill_frames(
     );
 }
 
-/// The nodes of skeleton `n` from its node `from` on, for the hard constraint's passes, each with
-/// the node before it and the skeleton's radius.
-fn push_body_nodes(out: &mut Vec<BodyNode>, state: &StrandState, n: u32, from: u32) {
-    let r = state.nodes(SkeletonId(n));
-    let radius = state.radius()[r.start];
-    out.extend((r.start + from as usize..r.end).map(|i| BodyNode {
-        node: i as u32,
-        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
-        skeleton: n,
-        radius,
-    }));
-}
-
-/// Where the hard constraint sends a node at `p` whose sphere reaches `lift` into the body
-/// (`n` the body's normal there): lifted along `n`, then, if it has a parent node, back onto
-/// its sphere about the parent at the height the lift asked for, so that a segment hanging
-/// straight into a surface swings out of it instead of being re-aimed along itself; where no
-/// place on that sphere is high enough, turned out ([`turn_out`]) by `method`.
-fn body_target(
-    body: &BodyModel,
-    method: CollisionMethod,
-    p: Point,
-    parent: Option<&Point>,
-    n: &Vector,
-    lift: Real,
-    radius: Real,
-) -> Point {
-    let lifted = p + n * lift;
-    let Some(&a) = parent else {
-        return lifted;
-    };
-    let len = (p - a).norm();
-    if len <= 1e-9 {
-        return lifted;
-    }
-    let u0 = (p - a) / len;
-    let c = (n.dot(&u0) * len + lift) / len;
-    if c > 1.0
-        && let Some(t) = turn_out(body, method, a, u0, len, radius)
-    {
-        return t;
-    }
-    let c = c.clamp(-1.0, 1.0);
-    let side = (u0 - n * n.dot(&u0))
-        .try_normalize(1e-6)
-        .unwrap_or_else(|| any_perpendicular(n));
-    a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
-}
-
-/// Where a node at `len` from its parent node `a` (its segment along `u0`) can go outside the
-/// body when lifting it along its own surface normal cannot reach the surface: the first of a
-/// few directions turned from `u0` toward the body's normal at `a` (back along the segment when
-/// `a` is far from the body) that leaves the node's centre `radius` outside, by `method`.
-/// A node that swung up into the underside of a part finds its nearest surface on the top, out
-/// of reach of its segment; this sends it back out the side it came in by.
-fn turn_out(
-    body: &BodyModel,
-    method: CollisionMethod,
-    a: Point,
-    u0: Vector,
-    len: Real,
-    radius: Real,
-) -> Option<Point> {
-    let away = body.distance(method, &a).map_or(-u0, |(_, n)| n);
-    (1..=TURN_OUT_STEPS).find_map(|k| {
-        let t = k as Real / TURN_OUT_STEPS as Real;
-        let dir = (u0 * (1.0 - t) + away * t).try_normalize(1e-6)?;
-        let q = a + dir * len;
-        body.distance(method, &q)
-            .is_none_or(|(d, _)| d >= radius)
-            .then_some(q)
-    })
-}
-
-/// Where a node caught inside the body can go on its sphere about its parent node `a` (radius
-/// `len`, the segment's direction now `u0`): of [`ESCAPE_DIRECTIONS`] directions spread evenly
-/// over the sphere, the one nearest `u0` whose point leaves the node's centre `radius` outside by
-/// the exact distance; failing that, the one whose point is least deep, if it is less deep than
-/// the node (`depth`) now. `None` when no direction improves on where the node is.
-fn escape(
-    body: &BodyModel,
-    a: Point,
-    u0: Vector,
-    len: Real,
-    radius: Real,
-    depth: Real,
-) -> Option<Point> {
-    let mut order: [(Real, u16); ESCAPE_DIRECTIONS] = [(0.0, 0); ESCAPE_DIRECTIONS];
-    for (k, slot) in order.iter_mut().enumerate() {
-        *slot = (-sphere_direction(k).dot(&u0), k as u16);
-    }
-    order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-    let mut best: Option<(Real, Point)> = None;
-    for &(_, k) in &order {
-        let q = a + sphere_direction(k as usize) * len;
-        let d = body
-            .distance(CollisionMethod::Bvh, &q)
-            .map_or(Real::INFINITY, |(d, _)| d);
-        if d >= radius {
-            return Some(q);
-        }
-        if best.is_none_or(|(b, _)| d > b) {
-            best = Some((d, q));
-        }
-    }
-    best.filter(|&(d, _)| -d < depth).map(|(_, q)| q)
-}
-
-/// Directions [`escape`] tries: enough that neighbours are about 15 degrees apart.
-const ESCAPE_DIRECTIONS: usize = 192;
-
-/// The `k`-th of [`ESCAPE_DIRECTIONS`] unit vectors on a Fibonacci sphere (evenly spread).
-fn sphere_direction(k: usize) -> Vector {
-    let golden = std::f32::consts::PI * (3.0 - 5.0f32.sqrt());
-    let y = 1.0 - 2.0 * (k as Real + 0.5) / ESCAPE_DIRECTIONS as Real;
-    let r = (1.0 - y * y).max(0.0).sqrt();
-    let phi = golden * k as Real;
-    Vector::new(r * phi.cos(), y, r * phi.sin())
-}
-
-/// Directions [`turn_out`] tries between a segment and the body's normal at its parent node.
-const TURN_OUT_STEPS: usize = 8;
-
-/// Detect-and-correct passes of the hard body constraint per step (a final detection follows).
-pub const BODY_PASSES: usize = 8;
 /// How deep inside the body [`Simulation::prefill_body_field`] computes samples (m).
 pub const PREFILL_INSIDE: Real = 0.01;
 
-/// Depth, as a fraction of the scene's penetration tolerance, below which a node in contact with
-/// the body is not moved (its approach is still removed).
-pub const CONTACT_SKIN: Real = 0.01;
-
-/// Largest number of nodes the late passes of the hard body constraint (from [`BODY_PASSES`] on)
-/// query by the exact distance instead of the scene's method.
-pub const EXACT_LATE_NODES: usize = 256;
-
-/// How many times a sweep of the hard body constraint tests a corrected node's target, and
-/// moves it again while it is still inside, before leaving it to the next sweep.
-pub const SWEEP_RETESTS: usize = 2;
-
-/// Most passes of the hard body constraint when nodes stay deeper than the tolerance.
-pub const MAX_BODY_PASSES: usize = 32;
-
-/// A node the hard body constraint tests, with the node before it on its skeleton.
-/// What the hard constraint's sweeps last found at a node.
-#[derive(Clone, Copy, Debug, Default)]
-struct SweepHit {
-    /// The body's normal where the node's sphere reached the body when last tested (its
-    /// velocity constraint).
-    normal: Option<Vector>,
-    /// How deep its centre is inside the body where it ends, as far as tested (m; negative
-    /// outside).
-    depth: Real,
-    /// Whether the present sweep tested it.
-    tested: bool,
-    /// Whether the sweep that last tested it moved it to a place it could not confirm clear.
-    corrected: bool,
-}
-
-#[derive(Clone, Copy, Debug)]
-struct BodyNode {
-    node: u32,
-    /// The previous node of the skeleton, `u32::MAX` for a free root.
-    prev: u32,
-    skeleton: u32,
-    radius: Real,
-}
-
-/// One section as the hair-hair response reads it: one cache line, instead of the section, its
-/// node, its direction and its skeleton's activity from four arrays.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
-struct ContactSection {
-    a: Point,
-    b: Point,
-    radius: Real,
-    /// Unit direction (zero for a degenerate section).
-    tangent: Vector,
-    /// The section's end node (the one a push moves).
-    node: u32,
-    /// Whether its skeleton is integrated this step.
-    active: bool,
-    /// Whether it is a segment (the only shape the response handles).
-    segment: bool,
-}
-
-/// The hair-hair narrow phase's decisions for one chunk of the pair set, in pair order.
-///
-/// Measured and dropped (temporary timers, alternated with the code kept): the contact record
-/// split into a 16-byte head (direction, node, flags) and the segment read by pushes only (no
-/// change on `strands10k`, whose 300,000 records do not fit in the cache); the shares holding
-/// the joint that consecutive shares have in common in registers (the accumulation on `wardlin`
-/// went from 1.6 to 2.1 ms: slower); the pushes' closest points eight pairs at a time by a lane
-/// kernel equal to the scalar one bit for bit (the narrow phase unchanged: 2.4-3.1 ms on
-/// `wardlin`, 59-90 ms on `strands10k`, either way; tried again later, medians of 3.86-4.32 ms
-/// with it and 3.68-4.78 ms without over four alternated rounds of 60 frames); each node's two
-/// rates side by side in a scratch while the shares average them (one load and one store of a
-/// pair per node instead of two of each: the shares' loop took 1.76-1.83 ms fastest with it and
-/// 1.69-1.91 ms without over three rounds; it waits on the chain of shares, not on memory); the
-/// pairs sorted into shares and crossings by a first pass with no branch on the outcome (each
-/// written to its list's next slot, the slot kept only if it belongs there), the closest points
-/// of the crossings found by a second (near-parallel and crossing pairs come mixed, about one in
-/// three crossing): the same records, but the narrow phase took 3.50-5.26 ms on `wardlin` with it
-/// and 3.72-4.94 ms without over five alternated rounds of 60 frames, no steadier relative to the
-/// pair search's time in the same runs (the outcome's branch is not what the loop waits on).
-#[derive(Debug, Default)]
-struct ResponseChunk {
-    /// Near-parallel sections in contact: their joints share their rates.
-    shares: Vec<[u32; 2]>,
-    /// Crossing sections overlapping: the second node's push, half the overlap along the line
-    /// between the closest points (the first is pushed the opposite way).
-    pushes: Vec<(u32, u32, Vector)>,
-    /// With `collision.pair_search_interval` above 1: every pair of segments of the chunk, by
-    /// their end nodes, in pair order, for the steps until the next search.
-    kept: Vec<[u32; 2]>,
-}
-
-impl ResponseChunk {
-    /// The narrow phase on the kept pairs at the present positions (`p`, per-node `radius`):
-    /// the sections rebuilt from their end nodes as the step builds them, a pair now apart
-    /// dropped, the others shared or pushed as after a search. Eight pairs at a time, in
-    /// lanes with no branch, so that the loops compile to packed instructions: one pair at a
-    /// time, with its divisions and branches, the test cost more than the search it replaces
-    /// (28.5 ms a step against 23.5 ms on `wardlin`).
-    fn retest(&mut self, state: &StrandState, p: &[Point], radius: &[Real], cos_parallel: Real) {
-        const L: usize = 8;
-        self.shares.clear();
-        self.pushes.clear();
-        let cos2 = cos_parallel * cos_parallel.abs();
-        let active = |i: usize| state.is_active(SkeletonId(state.skeleton_of(i)));
-        let mut block = [[0u32; 2]; L];
-        for group in self.kept.chunks(L) {
-            // The pairs of an active skeleton; padded with the first of them.
-            let mut n = 0;
-            for &pair in group {
-                if active(pair[0] as usize) || active(pair[1] as usize) {
-                    block[n] = pair;
-                    n += 1;
-                }
-            }
-            if n == 0 {
-                continue;
-            }
-            for k in n..L {
-                block[k] = block[0];
-            }
-            // The sections' ends and radii, lane by lane.
-            let (mut a0, mut u, mut b0, mut v) =
-                ([[0.0; L]; 3], [[0.0; L]; 3], [[0.0; L]; 3], [[0.0; L]; 3]);
-            let mut radii = [0.0; L];
-            for (l, &[a, b]) in block.iter().enumerate() {
-                let (i, j) = (a as usize, b as usize);
-                for k in 0..3 {
-                    a0[k][l] = p[i - 1][k];
-                    u[k][l] = p[i][k] - p[i - 1][k];
-                    b0[k][l] = p[j - 1][k];
-                    v[k][l] = p[j][k] - p[j - 1][k];
-                }
-                radii[l] = radius[i].max(radius[i - 1]) + radius[j].max(radius[j - 1]);
-            }
-            let mut r = [[0.0; L]; 3];
-            for k in 0..3 {
-                for l in 0..L {
-                    r[k][l] = a0[k][l] - b0[k][l];
-                }
-            }
-            let (s, t) = hair_ssv::segment_segment_params_lanes(&u, &v, &r);
-            let (mut d, mut dist, mut parallel) = ([[0.0; L]; 3], [0.0; L], [false; L]);
-            for l in 0..L {
-                // From the first section's closest point to the second's.
-                for k in 0..3 {
-                    d[k][l] = (b0[k][l] + v[k][l] * t[l]) - (a0[k][l] + u[k][l] * s[l]);
-                }
-                dist[l] = (d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l]).sqrt();
-                // |cos| of the angle between them at least `cos_parallel`, without the roots; a
-                // point section has no direction (its cosine is taken as 0, as the search does).
-                let dot = |x: &[[Real; L]; 3], y: &[[Real; L]; 3]| {
-                    x[0][l] * y[0][l] + x[1][l] * y[1][l] + x[2][l] * y[2][l]
-                };
-                let (a, e, b) = (dot(&u, &u), dot(&v, &v), dot(&u, &v));
-                parallel[l] = (b * b >= cos2 * a * e && a > 0.0 && e > 0.0) || cos_parallel <= 0.0;
-            }
-            for l in 0..n {
-                let overlap = radii[l] - dist[l];
-                // What the search keeps: the segments within the sum of their radii.
-                if overlap.is_nan() || overlap < 0.0 {
-                    continue;
-                }
-                let [a, b] = block[l];
-                if parallel[l] {
-                    self.shares.push([a, b]);
-                } else if overlap > 0.0 && dist[l] > 1e-9 {
-                    let d = Vector::new(d[0][l], d[1][l], d[2][l]);
-                    self.pushes.push((a, b, d * (0.5 * overlap / dist[l])));
-                }
-            }
-        }
+/// The body as the adaptive policy's depth image draws it.
+fn occluder(body: &MeshBody) -> OccluderMesh<'_> {
+    OccluderMesh {
+        vertices: &body.vertices,
+        triangles: &body.triangles,
+        closed: body.closed,
     }
-}
-
-fn any_perpendicular(n: &Vector) -> Vector {
-    let a = if n.x.abs() < 0.9 {
-        Vector::x()
-    } else {
-        Vector::y()
-    };
-    n.cross(&a).normalize()
 }
 
 fn ms(a: Instant, b: Instant) -> f64 {
@@ -1947,51 +1050,6 @@ mod tests {
         sim.teleport(Isometry3::translation(2.0, 0.0, 0.0));
         sim.seen_by_camera(&points, &mut seen);
         assert_eq!(seen, [false, false, false, true]);
-    }
-
-    /// The kept pairs tested again at the positions the search found them at give what the
-    /// search's narrow phase gave: the same shares and the same pushes, bit for bit (the lanes
-    /// compute hair-ssv's segment-segment expressions in the same order), save a pair on the
-    /// edge of the parallel angle, which the lanes decide on squared cosines.
-    #[test]
-    fn kept_pairs_retested_where_they_were_found_respond_as_the_search_did() {
-        let mut scene = Scene::load("wind").expect("built-in scene");
-        scene.scene.collision.pair_search_interval = 3;
-        let mut sim = Simulation::new(&scene, LodPolicy::Fine).expect("scene builds");
-        let mut compared = (0, 0);
-        for _ in 0..12 {
-            // The step's sections and the search on them, as `step` runs them (the pairs then
-            // meet the dynamics, so they are compared before it).
-            sim.build_sections();
-            sim.grid.rebuild(&sim.sections).expect("grid");
-            let cos = scene.scene.collision.parallel_angle.cos();
-            sim.search_hair_pairs(cos, true);
-            let chunks = sim.pairs.chunk_count();
-            let found: Vec<_> = sim.responses[..chunks]
-                .iter()
-                .map(|r| (r.shares.clone(), r.pushes.clone()))
-                .collect();
-            let (p, radius) = (sim.state.positions(), sim.state.radius());
-            for (r, (shares, pushes)) in sim.responses[..chunks].iter_mut().zip(&found) {
-                r.retest(&sim.state, p, radius, cos);
-                let bits = |v: &[(u32, u32, Vector)]| -> Vec<(u32, u32, [u32; 3])> {
-                    v.iter()
-                        .map(|(a, b, d)| (*a, *b, [d.x, d.y, d.z].map(f32::to_bits)))
-                        .collect()
-                };
-                if r.shares == *shares {
-                    assert_eq!(bits(&r.pushes), bits(pushes));
-                } else {
-                    // Only a pair on the edge of the parallel angle moves between the lists.
-                    let moved = r.shares.len().abs_diff(shares.len());
-                    assert!(moved <= 2 && moved == r.pushes.len().abs_diff(pushes.len()));
-                }
-                compared.0 += r.shares.len();
-                compared.1 += r.pushes.len();
-            }
-            sim.step().expect("step");
-        }
-        assert!(compared.0 > 0 && compared.1 > 0, "{compared:?}");
     }
 
     /// One float's lowest bit flipped anywhere in the state (an angle or a rate of the first, a

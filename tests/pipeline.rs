@@ -151,7 +151,7 @@ fn adaptive_front_does_not_flicker_at_the_edge_of_sight() {
     assert!(
         transitions <= 20,
         "{transitions} splits and merges in 10 steps (hidden after {} steps)",
-        hair::adaptive::HIDDEN_AFTER
+        hair::lod::HIDDEN_AFTER
     );
 }
 
@@ -167,7 +167,7 @@ fn hair_behind_the_body_coarsens_and_hair_in_view_does_not() {
         .unwrap()
         .front_nodes()
         .len();
-    let steps = hair::adaptive::HIDDEN_AFTER as usize + 12;
+    let steps = hair::lod::HIDDEN_AFTER as usize + 12;
     let mut hidden = 0;
     for _ in 0..steps {
         hidden = sim.step().unwrap().lod_hidden_trees;

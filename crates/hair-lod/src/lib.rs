@@ -12,6 +12,7 @@
 //! | [`select`], [`SelectParams`], [`NodeInputs`], [`Activity`], [`Front`], [`Plan`] | the pure per-step decision: visibility, distance, speed and activity against per-level intervals |
 //! | [`apply`], [`split`], [`merge`], [`try_merge`], [`merge_check`], [`MergeParams`] | transitions that carry motion and properties |
 //! | [`LodState`], [`LodBond`], [`cut`], [`add_bond`] | per-node motion (bend from rest, angular velocities) and properties (wetness, stiffness, thickness, length, cut, bonds) |
+//! | [`AdaptiveLod`], [`AdaptiveSettings`], [`View`], [`BodyDepth`] | the `adaptive` policy over a strand state: visibility (view cone, the body's depth image), held speeds and hidden-step counts (hysteresis), one selection and transition per step |
 //! | [`test_heads`] | a procedural stand-in for the Ward & Lin benchmark head |
 //!
 //! ## The model
@@ -71,6 +72,7 @@
 //! # Ok::<(), LodError>(())
 //! ```
 
+mod adaptive;
 mod build;
 mod error;
 mod hairstyle;
@@ -81,6 +83,10 @@ mod state;
 pub mod test_heads;
 mod transition;
 
+pub use adaptive::{
+    AdaptiveLod, AdaptiveSettings, BODY_DEPTH_SIZE, BodyDepth, HIDDEN_AFTER, HIDDEN_BEHIND,
+    OccluderMesh, SPEED_HOLD, View,
+};
 pub use build::{HierarchyParams, MinGroup};
 pub use error::LodError;
 pub use hairstyle::{Hairstyle, Strand};

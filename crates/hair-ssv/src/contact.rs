@@ -58,7 +58,7 @@ impl Contact {
 
 /// A unit vector perpendicular to `v` (any one; `+z` when `v` is zero).
 #[inline]
-pub(crate) fn any_perpendicular(v: &Vector) -> Vector {
+pub fn any_perpendicular(v: &Vector) -> Vector {
     let candidate = if v.x.abs() <= v.y.abs() && v.x.abs() <= v.z.abs() {
         Vector::x()
     } else if v.y.abs() <= v.z.abs() {

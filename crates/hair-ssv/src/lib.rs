@@ -38,8 +38,10 @@ mod contact;
 mod cylinder_map;
 mod distance;
 mod distance_batch;
+mod distance_field;
 mod error;
 pub mod fit;
+mod mesh_body;
 pub mod query;
 mod ray;
 mod shape;
@@ -50,15 +52,20 @@ pub mod test_meshes;
 
 pub use body::{Body, BodyPart, PartMap};
 pub use bvh::{Bvh, ContactBatch, MeshClosest, MeshContact};
-pub use contact::Contact;
+pub use contact::{Contact, any_perpendicular};
 pub use cylinder_map::{CylinderMap, CylinderMapConfig};
 pub use distance::{
     distance_lss_lss, distance_lss_rss, distance_pss_lss, distance_pss_pss, distance_pss_rss,
     distance_rss_rss,
 };
 pub use distance_batch::{distance_lss_lss_batch, lss_lss_lanes, segment_segment_params_lanes};
+pub use distance_field::DistanceField;
 pub use error::SsvError;
 pub use fit::{fit_lss, fit_rss, fit_rss_triangles};
+pub use mesh_body::{
+    CollisionMethod, FIELD_SAMPLES, MeshBody, NEAR_MARGIN, NearField, PseudoNormals, cap_holes,
+    is_closed, wrinkled_torus,
+};
 pub use ray::RayHit;
 pub use shape::{AXIS_TOLERANCE, Lss, Pss, Rss, Ssv};
 pub use sphere_map::{SphereMap, SphereMapConfig};

@@ -2,20 +2,19 @@
 //! the view moves) and testing points against it (every control point of the front, every step).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use hair::BodyModel;
-use hair::adaptive::{BodyDepth, View};
-use hair::scene::BodySpec;
-use hair::ssv::{Point, Vector};
+
+use hair_lod::{BodyDepth, OccluderMesh, View};
+use hair_ssv::{Point, Vector};
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
     // The procedural head at `wardlin`'s resolution (about 53,000 triangles) and its camera.
-    let body = BodyModel::from_spec(
-        &BodySpec::Head { resolution: 96 },
-        std::path::Path::new("."),
-    )
-    .expect("procedural head")
-    .expect("a body");
+    let (vertices, triangles) = hair_ssv::test_meshes::head_and_shoulders(96);
+    let body = OccluderMesh {
+        vertices: &vertices,
+        triangles: &triangles,
+        closed: true,
+    };
     let eye = Point::new(0.0, 0.05, 0.6);
     let view = View {
         eye,
@@ -33,10 +32,10 @@ fn bench(c: &mut Criterion) {
                 eye: eye + Vector::new(1e-3 * (step % 7) as f32, 0.0, 0.0),
                 ..view
             };
-            black_box(depth.build(&body, &moved))
+            black_box(depth.build(body, &moved))
         })
     });
-    depth.build(&body, &view);
+    depth.build(body, &view);
     let seen = View {
         occluder: Some(&depth),
         ..view

@@ -1,4 +1,4 @@
-//! The `adaptive` LOD policy inside the pipeline (Ward & Lin §6): each step the hierarchy's
+//! The `adaptive` LOD policy over a strand state (Ward & Lin §6): each step the hierarchy's
 //! active front is re-selected from what the camera sees and how fast the hair moves, and the
 //! transitions carry the motion between levels.
 //!
@@ -10,17 +10,13 @@
 //! steps asks for the coarsest level and, when all of a tree's hair is hidden, the tree collapses
 //! to its root strip.
 //! Speeds are held against a decay ([`SPEED_HOLD`]) and merges need a margin
-//! ([`hair_lod::MERGE_MARGIN`]): hysteresis, so that the front does not flicker.
+//! ([`crate::MERGE_MARGIN`]): hysteresis, so that the front does not flicker.
 
-use crate::HairError;
-use crate::body::BodyModel;
-use crate::scene::AdaptiveSpec;
-use hair_dynamics::{SkeletonId, StrandState};
-use hair_lod::{
-    Activity as LodActivity, Front, Hierarchy, LodState, MergeParams, NodeInputs, Plan,
+use crate::{
+    Activity as LodActivity, Front, Hierarchy, LodError, LodState, MergeParams, NodeInputs, Plan,
     SelectParams, TransitionReport,
 };
-use hair_ssv::{Point, Real, Vector};
+use hair_dynamics::{Point, Real, SkeletonId, StrandState, Vector};
 
 /// What the camera sees, in the head frame.
 #[derive(Clone, Copy, Debug)]
@@ -56,6 +52,18 @@ impl View<'_> {
 /// angle, must not be taken for one behind it.
 pub const HIDDEN_BEHIND: Real = 0.01;
 
+/// A body mesh as [`BodyDepth`] draws it.
+#[derive(Clone, Copy, Debug)]
+pub struct OccluderMesh<'a> {
+    /// Vertices, in the frame of the view.
+    pub vertices: &'a [Point],
+    /// Triangles, wound outward for a closed mesh.
+    pub triangles: &'a [[u32; 3]],
+    /// Whether the mesh is a closed surface (then only the triangles facing the eye are drawn,
+    /// if it is wound outward).
+    pub closed: bool,
+}
+
 /// The body's depth as the camera sees it: a square image over the view cone, each pixel the
 /// view depth of the nearest triangle at its centre. It answers "is this point behind the
 /// body?" for the `adaptive` policy's visibility, for any body mesh (a head, a bust from an OBJ,
@@ -68,11 +76,7 @@ pub const HIDDEN_BEHIND: Real = 0.01;
 ///
 /// In the head frame the body does not move, so the image changes only with the view:
 /// [`BodyDepth::build`] keeps it when the view is the same to the bit, and a stationary camera
-/// draws the body once. A moving one draws it every step, on one thread: about 2 ms for the
-/// procedural head's 53,000 triangles, and a point test takes about 15 ns (`cargo bench -p hair
-/// --bench visibility`). Eight bands of rows drawn in parallel, each its part of every triangle,
-/// were slower: the first step of `hair run wardlin --lod adaptive` had `ms_lod` 6.8 ms with
-/// them against 2.2 ms without (0.8 ms on the steps after, which keep the image).
+/// draws the body once (its cost: `docs/perf/lod.md`).
 #[derive(Clone, Debug, Default)]
 pub struct BodyDepth {
     /// The view the image was drawn for: eye, forward and cone cosine, by their bits.
@@ -109,7 +113,7 @@ impl BodyDepth {
 
     /// Draws the body's depth for `view` (its occluder is ignored), unless the image already
     /// holds this view. Returns whether it drew. Takes memory only the first time.
-    pub fn build(&mut self, body: &BodyModel, view: &View<'_>) -> bool {
+    pub fn build(&mut self, body: OccluderMesh<'_>, view: &View<'_>) -> bool {
         let bits = |v: Real| v.to_bits();
         let key = [
             bits(view.eye.x),
@@ -149,8 +153,8 @@ impl BodyDepth {
         // On a closed, outward-wound surface the nearest triangle along any line of sight
         // faces the eye: the others need not be drawn. (Wound inward, the faces toward the eye
         // would be the far ones: such a mesh is drawn whole.)
-        let front_only = body.closed && signed_volume(body) > 0.0;
-        for tri in &body.triangles {
+        let front_only = body.closed && signed_volume(&body) > 0.0;
+        for tri in body.triangles {
             let v = tri.map(|i| projected[i as usize]);
             let [Some(a), Some(b), Some(c)] = v else {
                 continue;
@@ -254,7 +258,7 @@ impl BodyDepth {
 }
 
 /// The volume a closed mesh encloses, positive when its triangles are wound outward.
-fn signed_volume(body: &BodyModel) -> f64 {
+fn signed_volume(body: &OccluderMesh<'_>) -> f64 {
     body.triangles
         .iter()
         .map(|t| {
@@ -262,6 +266,44 @@ fn signed_volume(body: &BodyModel) -> f64 {
             p.dot(&q.cross(&r)) / 6.0
         })
         .sum()
+}
+
+/// When the `adaptive` policy asks for detail (Ward & Lin §6.1): the level a node wants rises
+/// as it gets nearer the camera or moves faster; hair the camera cannot see collapses to its
+/// root strip and is not drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
+pub struct AdaptiveSettings {
+    /// Nearer than this the finest level (m).
+    pub distance_finest: Real,
+    /// Farther than this the coarsest level (m).
+    pub distance_coarsest: Real,
+    /// Slower than this asks for the coarsest level (m/s).
+    pub speed_coarsest: Real,
+    /// Faster than this asks for the finest level (m/s).
+    pub speed_finest: Real,
+    /// Children within this distance of their parent merge (m).
+    pub merge_distance: Real,
+    /// Whether hair hidden from the camera (behind the body or outside the view) collapses.
+    pub cull_hidden: bool,
+}
+
+impl Default for AdaptiveSettings {
+    fn default() -> Self {
+        let s = SelectParams::default();
+        Self {
+            distance_finest: s.distance_finest,
+            distance_coarsest: s.distance_coarsest,
+            speed_coarsest: s.speed_coarsest,
+            speed_finest: s.speed_finest,
+            merge_distance: MergeParams::default().merge_distance,
+            cull_hidden: true,
+        }
+    }
 }
 
 /// The adaptive front and the motion that travels between its levels.
@@ -298,7 +340,7 @@ pub const HIDDEN_AFTER: u32 = 15;
 /// seven steps). Hair fluttering in gusty wind reaches a speed on one step and a third of it a
 /// few steps later; judged by the speed of the moment, it split when fast and merged as soon as it
 /// slowed. Judged by the held speed, hair gets detail as soon as it is fast and gives it up once
-/// it has been slow for a while. (With this, [`HIDDEN_AFTER`] and [`hair_lod::MERGE_MARGIN`], the
+/// it has been slow for a while. (With this, [`HIDDEN_AFTER`] and [`crate::MERGE_MARGIN`], the
 /// 240 frames of `hair run zoom` made 8,559 splits and merges instead of 15,329 while hair-hair
 /// pushes were summed; with their mean, the default, the hair settles and they make 763.)
 pub const SPEED_HOLD: Real = 0.9;
@@ -307,14 +349,14 @@ impl AdaptiveLod {
     /// Becomes a copy of `initial`, keeping the plan's lists: the plan is refilled every step,
     /// and its lists keep the room they grew to, so the steps after a reset take no memory
     /// (every other buffer is sized by the hierarchy and comes back at full size).
-    pub(crate) fn reset_to(&mut self, initial: &Self) {
+    pub fn reset_to(&mut self, initial: &Self) {
         let plan = std::mem::take(&mut self.plan);
         *self = initial.clone();
         self.plan = plan;
     }
 
     /// Starts at the coarsest front (every root strip).
-    pub fn new(h: &Hierarchy, spec: &AdaptiveSpec) -> Result<Self, HairError> {
+    pub fn new(h: &Hierarchy, spec: &AdaptiveSettings) -> Self {
         let select = SelectParams {
             distance_finest: spec.distance_finest,
             distance_coarsest: spec.distance_coarsest,
@@ -328,7 +370,7 @@ impl AdaptiveLod {
         let n = h.node_count();
         let front = Front::coarsest(h);
         let was_active = (0..n as u32).map(|v| front.is_active(v)).collect();
-        Ok(Self {
+        Self {
             front,
             lod: LodState::new(h),
             plan: Plan::default(),
@@ -343,7 +385,7 @@ impl AdaptiveLod {
             unseen_for: vec![0; n],
             held_speed: vec![0.0; n],
             last: TransitionReport::default(),
-        })
+        }
     }
 
     /// The current front.
@@ -382,7 +424,7 @@ impl AdaptiveLod {
         state: &mut StrandState,
         view: &View<'_>,
         frozen: &[bool],
-    ) -> Result<bool, HairError> {
+    ) -> Result<bool, LodError> {
         for n in 0..h.node_count() as u32 {
             if self.front.is_active(n) {
                 self.lod.read_motion(h, n, state, SkeletonId(n))?;
@@ -448,8 +490,8 @@ impl AdaptiveLod {
             speed: &self.speed,
             activity: &self.activity,
         };
-        hair_lod::select_into(h, &self.front, &inputs, &self.select, &mut self.plan)?;
-        self.last = hair_lod::apply(h, &mut self.front, &mut self.lod, &self.plan, &self.merge)?;
+        crate::select_into(h, &self.front, &inputs, &self.select, &mut self.plan)?;
+        self.last = crate::apply(h, &mut self.front, &mut self.lod, &self.plan, &self.merge)?;
         // Children pulled toward their parent's average (not merged yet) carry the pull.
         for i in 0..self.plan.merges.len() {
             let p = self.plan.merges[i];
@@ -507,16 +549,32 @@ impl AdaptiveLod {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::BodySpec;
     use proptest::prelude::*;
 
-    fn head() -> BodyModel {
-        BodyModel::from_spec(
-            &BodySpec::Head { resolution: 24 },
-            std::path::Path::new("."),
-        )
-        .expect("procedural head")
-        .expect("a body")
+    /// The procedural head and shoulders: vertices, triangles, closed.
+    struct Head {
+        vertices: Vec<Point>,
+        triangles: Vec<[u32; 3]>,
+        closed: bool,
+    }
+
+    impl Head {
+        fn mesh(&self) -> OccluderMesh<'_> {
+            OccluderMesh {
+                vertices: &self.vertices,
+                triangles: &self.triangles,
+                closed: self.closed,
+            }
+        }
+    }
+
+    fn head() -> Head {
+        let (vertices, triangles) = hair_ssv::test_meshes::head_and_shoulders(24);
+        Head {
+            vertices,
+            triangles,
+            closed: true,
+        }
     }
 
     fn looking_at(eye: Point, target: Point) -> View<'static> {
@@ -530,7 +588,7 @@ mod tests {
 
     /// Whether the segment from `a` to `b` crosses any of the body's triangles (Moller and
     /// Trumbore's test, in f64, both windings).
-    fn segment_hits(body: &BodyModel, a: &Point, b: &Point) -> bool {
+    fn segment_hits(body: &Head, a: &Point, b: &Point) -> bool {
         let (o, d) = (a.coords.cast::<f64>(), (b - a).cast::<f64>());
         body.triangles.iter().any(|t| {
             let [p, q, r] = t.map(|i| body.vertices[i as usize].coords.cast::<f64>());
@@ -566,7 +624,7 @@ mod tests {
             let eye = Point::from(dir.normalize() * distance);
             let view = looking_at(eye, Point::new(0.0, -0.05, 0.0));
             let mut depth = BodyDepth::new();
-            prop_assert!(depth.build(&body, &view));
+            prop_assert!(depth.build(body.mesh(), &view));
             for (x, y, z) in points {
                 let p = Point::new(x, y, z);
                 if depth.hides(&p) {
@@ -592,9 +650,9 @@ mod tests {
         let view = looking_at(eye, Point::new(0.0, -0.05, 0.0));
         for (name, body) in [("outward", &outward), ("inward", &inward), ("open", &open)] {
             let mut depth = BodyDepth::new();
-            assert!(depth.build(body, &view), "{name}");
+            assert!(depth.build(body.mesh(), &view), "{name}");
             assert!(
-                !depth.build(body, &view),
+                !depth.build(body.mesh(), &view),
                 "{name}: the same view is drawn again"
             );
             let seen = View {
@@ -622,9 +680,9 @@ mod tests {
         // A different eye draws again; before any build nothing is hidden.
         let mut depth = BodyDepth::new();
         assert!(!depth.hides(&Point::new(0.0, 0.0, -0.3)));
-        depth.build(&outward, &view);
+        depth.build(outward.mesh(), &view);
         assert!(depth.build(
-            &outward,
+            outward.mesh(),
             &looking_at(Point::new(0.0, 0.05, 0.61), Point::origin())
         ));
     }

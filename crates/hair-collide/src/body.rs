@@ -1,0 +1,549 @@
+//! The hard body constraint: Kurihara, Anjyo & Thalmann §4's reaction constraint, made
+//! positional. After integration no node is inside the body beyond the stated tolerance.
+
+use crate::CollisionSettings;
+use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
+use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector};
+use rayon::prelude::*;
+
+/// What one application of the body constraint found.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BodyReport {
+    /// Nodes in contact with the body on the first pass.
+    pub contacts: usize,
+    /// Deepest node centre left inside the body (m), each node counted where it was last
+    /// tested.
+    pub max_penetration: Real,
+}
+
+/// The hard body constraint with its scratch buffers: after the first call, a call allocates
+/// nothing once the buffers have grown to the hair.
+#[derive(Clone, Debug, Default)]
+pub struct BodyConstraint {
+    body_nodes: Vec<BodyNode>,
+    /// Per skeleton, the first node a pass moved (`u32::MAX`: none).
+    first_moved: Vec<u32>,
+    body_hits: Vec<Option<(Real, Vector)>>,
+    /// The sweeps: the chains of this pass and the next (`[skeleton, first node asked]`, by
+    /// skeleton), per skeleton its radius, the first node each chain moved, the chains of the
+    /// first pass, and per node what its last test found.
+    sweep_chains: Vec<[u32; 2]>,
+    sweep_next: Vec<[u32; 2]>,
+    sweep_radius: Vec<Real>,
+    sweep_moved: Vec<u32>,
+    swept: Vec<[u32; 2]>,
+    sweep_hits: Vec<SweepHit>,
+    /// Per node, during the depenetration ramp: how far its sphere may still reach into the
+    /// body at the end of this step (m).
+    allowance: Vec<Real>,
+    corrections: Vec<NodeCorrection>,
+    constraints: Vec<VelocityConstraint>,
+}
+
+impl BodyConstraint {
+    /// A constraint with empty buffers.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The hard constraint (Kurihara et al. §4's reaction constraint, made positional): every
+    /// front node closer to the body than its radius is moved out along the body's normal and
+    /// loses its velocity into the body, with friction. The node stays on the sphere about the
+    /// node before it, so a segment hanging straight into a surface swings out of it instead of
+    /// being re-aimed along itself ([`body_target`]).
+    ///
+    /// After the ramp (below) the regular passes are sweeps ([`StrandState::sweep_chains`]):
+    /// each skeleton root to tip, in parallel over skeletons, every node tested where the
+    /// corrections before it on its skeleton put it, so that one sweep resolves a whole chain
+    /// where a pass over every node at once found the nodes after each corrected one pushed in
+    /// again by its refit. A corrected node's target is tested and moved again while still
+    /// inside, up to [`CollisionSettings::sweep_retests`] times; the skeletons with a corrected node left
+    /// unconfirmed are swept again from their first such node, up to [`CollisionSettings::body_passes`] sweeps.
+    ///
+    /// Hair that starts inside the body (at the first step, or the first after a reset) comes
+    /// out linearly over the first [`CollisionSettings::depenetration_steps`] steps (the ramp): at the end of ramp
+    /// step `k` a node may still reach `(ramp - k - 1) / (ramp - k)` of the way it reached at the
+    /// start of that step, and never more than it was allowed the step before, so whatever
+    /// pushes it back in, it is held to the ramp; a node next to one still allowed inside is
+    /// allowed that, less the segment between them. Every other node, including one that
+    /// reaches the body during the ramp, is resolved at once. On the ramp the passes test every
+    /// node where the last pass left it (the allowances are set on the first), refit the
+    /// skeletons they moved, and repeat on them until no node is deeper than the skin
+    /// ([`CollisionSettings::contact_skin`] of the tolerance) beyond its allowance, or [`CollisionSettings::body_passes`] have run.
+    ///
+    /// Late passes, from [`CollisionSettings::body_passes`] on (on the ramp, or for the skeletons the sweeps left
+    /// moving), run until no node is deeper than half the tolerance beyond its allowance or
+    /// [`CollisionSettings::max_body_passes`] have run. They use the exact distance, whatever the scene's method,
+    /// once at most [`CollisionSettings::exact_late_nodes`] nodes are left; after the ramp they send a node whose
+    /// centre is still inside by more than half the tolerance to the nearest point of its
+    /// sphere about its parent that clears the body ([`escape`]): lifting along the node's own
+    /// normal can land it inside again where the body is thin (an ear) or creased, pass after
+    /// pass. The contacts of every pass lose their approach velocity once, after the last pass.
+    /// Returns the nodes in contact on the first pass and the deepest node centre left inside
+    /// the body (m), each node counted where it was last tested.
+    ///
+    pub fn apply(
+        &mut self,
+        state: &mut StrandState,
+        body: &MeshBody,
+        front: &[u32],
+        step: u64,
+        settings: &CollisionSettings,
+    ) -> Result<BodyReport, DynamicsError> {
+        let ramp = settings.depenetration_steps as u64;
+        // The share of its reach into the body a node that started inside may keep at the end
+        // of this ramp step (see above).
+        let in_ramp = step < ramp;
+        let keep = if in_ramp {
+            (ramp - step - 1) as Real / (ramp - step) as Real
+        } else {
+            0.0
+        };
+        if step == 0 {
+            // The allowances start from the depths read on the first pass below (a root the
+            // constraint does not move is allowed nothing).
+            self.allowance.clear();
+            self.allowance.resize(state.positions().len(), 0.0);
+        }
+        let method = settings.method;
+        let friction = settings.friction;
+        let tolerance = 0.5 * settings.tolerance;
+        // A node the last pass left within rounding of the surface is in contact but needs no
+        // refit: without this skin every pass found a few hundred nodes a few nanometres in and
+        // ran all its passes to move them by nothing.
+        let skin = settings.contact_skin * settings.tolerance;
+        // The passes test positions only, so the velocity constraints of every pass wait for the
+        // last one, in pass order: one refresh of each touched skeleton instead of one a pass.
+        self.constraints.clear();
+        self.body_nodes.clear();
+        let mut contacts = 0;
+        // The deepest node centre among the nodes the sweeps left (they no longer move).
+        let mut swept_depth: Real = 0.0;
+        let first_pass = if in_ramp {
+            for &n in front {
+                let id = SkeletonId(n);
+                if !state.is_active(id) {
+                    // Frozen by localization: it has not moved since it was last resolved.
+                    continue;
+                }
+                let from = u32::from(!state.is_free(id));
+                push_body_nodes(&mut self.body_nodes, &*state, n, from);
+            }
+            0
+        } else {
+            // The regular passes as sweeps: each skeleton root to tip, every node tested where
+            // the corrections before it put it, in parallel over skeletons. One sweep leaves
+            // a skeleton with every node tested where it ends except the corrected ones (the
+            // turn onto the sphere about the parent can leave one a little inside), so the next
+            // sweep starts at each skeleton's first corrected node.
+            self.sweep_chains.clear();
+            for &n in front {
+                let id = SkeletonId(n);
+                if state.is_active(id) {
+                    self.sweep_chains.push([n, u32::from(!state.is_free(id))]);
+                }
+            }
+            self.sweep_chains.sort_unstable();
+            // The sweep holds the state, so the callback reads each skeleton's radius from here.
+            let (radius, shared) = (&mut self.sweep_radius, &*state);
+            radius.clear();
+            radius.extend((0..shared.skeleton_count() as u32).map(|n| {
+                let r = shared.nodes(SkeletonId(n));
+                shared.radius().get(r.start).copied().unwrap_or(0.0)
+            }));
+            self.swept.clone_from(&self.sweep_chains);
+            self.sweep_hits
+                .resize(state.node_count(), SweepHit::default());
+            for pass in 0..settings.body_passes {
+                if self.sweep_chains.is_empty() {
+                    break;
+                }
+                self.sweep_moved.clear();
+                self.sweep_moved.resize(self.sweep_chains.len(), u32::MAX);
+                let (chains, skeleton_radius) = (&self.sweep_chains, &self.sweep_radius);
+                state.sweep_chains(
+                    chains,
+                    &mut self.sweep_hits,
+                    &mut self.sweep_moved,
+                    |ask, slot| {
+                        // A node a sweep before this one tested where it still is and did not
+                        // correct is not tested again.
+                        if pass > 0 && !ask.moved && !slot.corrected {
+                            slot.tested = false;
+                            return None;
+                        }
+                        let radius = skeleton_radius[chains[ask.chain][0] as usize];
+                        let inside = |p: &Point| {
+                            body.distance_within(method, p, radius)
+                                .filter(|(d, _)| *d < radius)
+                        };
+                        let hit = inside(&ask.at);
+                        *slot = SweepHit {
+                            normal: hit.map(|(_, n)| n),
+                            depth: hit.map_or(0.0, |(d, _)| -d),
+                            tested: true,
+                            corrected: false,
+                        };
+                        let (d, n) = hit?;
+                        if radius - d <= skin {
+                            return None;
+                        }
+                        // The target is tested here, and moved again while still inside, a few
+                        // times: a query costs a small part of refitting the skeleton again on
+                        // the next sweep. Where it ends untested, the next sweep tests it.
+                        let mut target =
+                            body_target(body, method, ask.at, ask.parent, &n, radius - d, radius);
+                        slot.corrected = true;
+                        for _ in 0..settings.sweep_retests {
+                            match inside(&target) {
+                                Some((d, n)) if radius - d > skin => {
+                                    target = body_target(
+                                        body,
+                                        method,
+                                        target,
+                                        ask.parent,
+                                        &n,
+                                        radius - d,
+                                        radius,
+                                    );
+                                }
+                                end => {
+                                    slot.depth = end.map_or(0.0, |(d, _)| -d);
+                                    slot.corrected = false;
+                                    break;
+                                }
+                            }
+                        }
+                        Some(target)
+                    },
+                )?;
+                // The contacts in chain order, then the chains to sweep again.
+                self.sweep_next.clear();
+                for (k, &[n, from]) in self.sweep_chains.iter().enumerate() {
+                    let r = state.nodes(SkeletonId(n));
+                    for node in r.start + from as usize..r.end {
+                        let h = &self.sweep_hits[node];
+                        if let (true, Some(normal)) = (h.tested, h.normal) {
+                            self.constraints.push(VelocityConstraint {
+                                node: node as u32,
+                                normal,
+                                friction,
+                            });
+                        }
+                    }
+                    let moved = self.sweep_moved[k];
+                    if moved != u32::MAX {
+                        self.sweep_next.push([n, moved - r.start as u32]);
+                    }
+                }
+                if pass == 0 {
+                    contacts = self.constraints.len();
+                }
+                std::mem::swap(&mut self.sweep_chains, &mut self.sweep_next);
+            }
+            // Skeletons still moving after the regular sweeps go on to the late passes below,
+            // from their first corrected node.
+            for &[n, from] in &self.sweep_chains {
+                let r = state.nodes(SkeletonId(n));
+                for h in &mut self.sweep_hits[r.start + from as usize..r.end] {
+                    h.depth = 0.0;
+                }
+                push_body_nodes(&mut self.body_nodes, &*state, n, from);
+            }
+            for &[n, from] in &self.swept {
+                let r = state.nodes(SkeletonId(n));
+                for h in &self.sweep_hits[r.start + from as usize..r.end] {
+                    swept_depth = swept_depth.max(h.depth);
+                }
+            }
+            settings.body_passes
+        };
+        let mut deepest: Real = 0.0;
+        // The deepest node centre among the nodes the passes stopped testing (they no longer
+        // move).
+        let mut settled: Real = 0.0;
+        for pass in first_pass..=settings.max_body_passes {
+            if pass > 0 && self.body_nodes.is_empty() {
+                break;
+            }
+            let positions = state.positions();
+            // The late passes, once few nodes are still moving, query the exact distance: an
+            // approximate field or table can be wrong by about its spacing where the body is
+            // thinner than that, and there its gradient can send a node back and forth across
+            // the surface without ever reaching it. (With many nodes left, as when dense hair
+            // starts inside the body, exact queries would cost seconds per step.)
+            let method = if pass >= settings.body_passes
+                && self.body_nodes.len() <= settings.exact_late_nodes
+            {
+                CollisionMethod::Bvh
+            } else {
+                method
+            };
+            self.body_nodes
+                .par_iter()
+                .map(|bn| {
+                    body.distance_within(method, &positions[bn.node as usize], bn.radius)
+                        .filter(|(d, _)| *d < bn.radius)
+                })
+                .collect_into_vec(&mut self.body_hits);
+            self.corrections.clear();
+            deepest = 0.0;
+            // The deepest node centre beyond what the ramp allows it: the passes stop when it is
+            // out.
+            let mut deepest_free: Real = 0.0;
+            // Nodes sent to [`escape`] this pass (each costs up to a few hundred exact queries).
+            let mut escapes = 0;
+            self.first_moved.clear();
+            self.first_moved.resize(state.skeleton_count(), u32::MAX);
+            for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
+                let node = bn.node as usize;
+                if in_ramp && pass == 0 && node < self.allowance.len() {
+                    let reach = hit.map_or(0.0, |(d, _)| (bn.radius - d).max(0.0));
+                    let before = if step == 0 {
+                        reach
+                    } else {
+                        self.allowance[node].min(reach)
+                    };
+                    let mut a = before * keep;
+                    // A node next to one still allowed inside may be held inside by it, less
+                    // the segment between them (its sphere about that node reaches no farther
+                    // out). The nodes of a skeleton come root first, so the one before is done.
+                    if let Some(&b) = self.allowance.get(bn.prev as usize) {
+                        let len = (positions[node] - positions[bn.prev as usize]).norm();
+                        a = a.max(b - len);
+                    }
+                    self.allowance[node] = a;
+                }
+                let Some((d, n)) = hit else { continue };
+                deepest = deepest.max(-d);
+                self.constraints.push(VelocityConstraint {
+                    node: bn.node,
+                    normal: *n,
+                    friction,
+                });
+                let allowed = if in_ramp {
+                    self.allowance.get(node).copied().unwrap_or(0.0)
+                } else {
+                    0.0
+                };
+                let ramped = allowed > 0.0;
+                let lift = bn.radius - d - allowed;
+                if lift <= skin {
+                    // In contact but out as far as it needs to be: only its approach is
+                    // removed.
+                    continue;
+                }
+                deepest_free = deepest_free.max(-d - allowed);
+                let p = positions[bn.node as usize];
+                let parent = (bn.prev != u32::MAX).then(|| positions[bn.prev as usize]);
+                // After the ramp, a node still inside after the regular passes is caught where
+                // lifting along its own normal lands in the body again (a thin part such as an
+                // ear, or a crease): it goes to the nearest place on its sphere that clears.
+                let stuck = parent.is_some_and(|a| (p - a).norm() > 1e-9)
+                    && !ramped
+                    && pass >= settings.body_passes
+                    && -d > tolerance
+                    && escapes < settings.exact_late_nodes;
+                escapes += usize::from(stuck);
+                let target = match parent {
+                    Some(a) if stuck => {
+                        let len = (p - a).norm();
+                        escape(body, a, (p - a) / len, len, bn.radius, -d).unwrap_or(p + n * lift)
+                    }
+                    _ => body_target(body, method, p, parent.as_ref(), n, lift, bn.radius),
+                };
+                self.corrections.push(NodeCorrection {
+                    node: bn.node,
+                    delta: target - p,
+                });
+                let first = &mut self.first_moved[bn.skeleton as usize];
+                *first = (*first).min(bn.node);
+            }
+            if pass == 0 {
+                contacts = self.constraints.len();
+            }
+            let done = self.corrections.is_empty()
+                || pass == settings.max_body_passes
+                || (pass >= settings.body_passes && deepest_free <= tolerance);
+            if done {
+                break;
+            }
+            state.apply_corrections(&self.corrections)?;
+            // The refit moves a skeleton's nodes from its first corrected one on; the nodes
+            // before it stay where this pass found them: out of the body, or (on the ramp)
+            // within their allowance, which the depth reported at the end still counts.
+            let (first_moved, mut hits) = (&self.first_moved, self.body_hits.iter());
+            self.body_nodes.retain(|bn| {
+                let moved = bn.node >= first_moved[bn.skeleton as usize];
+                if let (false, Some(Some((d, _)))) = (moved, hits.next()) {
+                    settled = settled.max(-d);
+                }
+                moved
+            });
+        }
+        if !self.constraints.is_empty() {
+            state.apply_velocity_constraints(&self.constraints)?;
+        }
+        Ok(BodyReport {
+            contacts,
+            max_penetration: deepest.max(settled).max(swept_depth).max(0.0),
+        })
+    }
+}
+
+/// The nodes of skeleton `n` from its node `from` on, for the hard constraint's passes, each with
+/// the node before it and the skeleton's radius.
+fn push_body_nodes(out: &mut Vec<BodyNode>, state: &StrandState, n: u32, from: u32) {
+    let r = state.nodes(SkeletonId(n));
+    let radius = state.radius()[r.start];
+    out.extend((r.start + from as usize..r.end).map(|i| BodyNode {
+        node: i as u32,
+        prev: if i > r.start { i as u32 - 1 } else { u32::MAX },
+        skeleton: n,
+        radius,
+    }));
+}
+
+/// Where the hard constraint sends a node at `p` whose sphere reaches `lift` into the body
+/// (`n` the body's normal there): lifted along `n`, then, if it has a parent node, back onto
+/// its sphere about the parent at the height the lift asked for, so that a segment hanging
+/// straight into a surface swings out of it instead of being re-aimed along itself; where no
+/// place on that sphere is high enough, turned out ([`turn_out`]) by `method`.
+fn body_target(
+    body: &MeshBody,
+    method: CollisionMethod,
+    p: Point,
+    parent: Option<&Point>,
+    n: &Vector,
+    lift: Real,
+    radius: Real,
+) -> Point {
+    let lifted = p + n * lift;
+    let Some(&a) = parent else {
+        return lifted;
+    };
+    let len = (p - a).norm();
+    if len <= 1e-9 {
+        return lifted;
+    }
+    let u0 = (p - a) / len;
+    let c = (n.dot(&u0) * len + lift) / len;
+    if c > 1.0
+        && let Some(t) = turn_out(body, method, a, u0, len, radius)
+    {
+        return t;
+    }
+    let c = c.clamp(-1.0, 1.0);
+    let side = (u0 - n * n.dot(&u0))
+        .try_normalize(1e-6)
+        .unwrap_or_else(|| any_perpendicular(n));
+    a + (side * (1.0 - c * c).max(0.0).sqrt() + n * c) * len
+}
+
+/// Where a node at `len` from its parent node `a` (its segment along `u0`) can go outside the
+/// body when lifting it along its own surface normal cannot reach the surface: the first of a
+/// few directions turned from `u0` toward the body's normal at `a` (back along the segment when
+/// `a` is far from the body) that leaves the node's centre `radius` outside, by `method`.
+/// A node that swung up into the underside of a part finds its nearest surface on the top, out
+/// of reach of its segment; this sends it back out the side it came in by.
+fn turn_out(
+    body: &MeshBody,
+    method: CollisionMethod,
+    a: Point,
+    u0: Vector,
+    len: Real,
+    radius: Real,
+) -> Option<Point> {
+    let away = body.distance(method, &a).map_or(-u0, |(_, n)| n);
+    (1..=TURN_OUT_STEPS).find_map(|k| {
+        let t = k as Real / TURN_OUT_STEPS as Real;
+        let dir = (u0 * (1.0 - t) + away * t).try_normalize(1e-6)?;
+        let q = a + dir * len;
+        body.distance(method, &q)
+            .is_none_or(|(d, _)| d >= radius)
+            .then_some(q)
+    })
+}
+
+/// Where a node caught inside the body can go on its sphere about its parent node `a` (radius
+/// `len`, the segment's direction now `u0`): of [`ESCAPE_DIRECTIONS`] directions spread evenly
+/// over the sphere, the one nearest `u0` whose point leaves the node's centre `radius` outside by
+/// the exact distance; failing that, the one whose point is least deep, if it is less deep than
+/// the node (`depth`) now. `None` when no direction improves on where the node is.
+fn escape(
+    body: &MeshBody,
+    a: Point,
+    u0: Vector,
+    len: Real,
+    radius: Real,
+    depth: Real,
+) -> Option<Point> {
+    let mut order: [(Real, u16); ESCAPE_DIRECTIONS] = [(0.0, 0); ESCAPE_DIRECTIONS];
+    for (k, slot) in order.iter_mut().enumerate() {
+        *slot = (-sphere_direction(k).dot(&u0), k as u16);
+    }
+    order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    let mut best: Option<(Real, Point)> = None;
+    for &(_, k) in &order {
+        let q = a + sphere_direction(k as usize) * len;
+        let d = body
+            .distance(CollisionMethod::Bvh, &q)
+            .map_or(Real::INFINITY, |(d, _)| d);
+        if d >= radius {
+            return Some(q);
+        }
+        if best.is_none_or(|(b, _)| d > b) {
+            best = Some((d, q));
+        }
+    }
+    best.filter(|&(d, _)| -d < depth).map(|(_, q)| q)
+}
+
+/// Directions [`escape`] tries: enough that neighbours are about 15 degrees apart.
+const ESCAPE_DIRECTIONS: usize = 192;
+
+/// The `k`-th of [`ESCAPE_DIRECTIONS`] unit vectors on a Fibonacci sphere (evenly spread).
+fn sphere_direction(k: usize) -> Vector {
+    let golden = std::f32::consts::PI * (3.0 - 5.0f32.sqrt());
+    let y = 1.0 - 2.0 * (k as Real + 0.5) / ESCAPE_DIRECTIONS as Real;
+    let r = (1.0 - y * y).max(0.0).sqrt();
+    let phi = golden * k as Real;
+    Vector::new(r * phi.cos(), y, r * phi.sin())
+}
+
+/// Directions [`turn_out`] tries between a segment and the body's normal at its parent node.
+const TURN_OUT_STEPS: usize = 8;
+
+/// What the hard constraint's sweeps last found at a node.
+#[derive(Clone, Copy, Debug, Default)]
+struct SweepHit {
+    /// The body's normal where the node's sphere reached the body when last tested (its
+    /// velocity constraint).
+    normal: Option<Vector>,
+    /// How deep its centre is inside the body where it ends, as far as tested (m; negative
+    /// outside).
+    depth: Real,
+    /// Whether the present sweep tested it.
+    tested: bool,
+    /// Whether the sweep that last tested it moved it to a place it could not confirm clear.
+    corrected: bool,
+}
+
+/// A node the hard body constraint tests, with the node before it on its skeleton.
+#[derive(Clone, Copy, Debug)]
+struct BodyNode {
+    node: u32,
+    /// The previous node of the skeleton, `u32::MAX` for a free root.
+    prev: u32,
+    skeleton: u32,
+    radius: Real,
+}
+
+fn any_perpendicular(n: &Vector) -> Vector {
+    let a = if n.x.abs() < 0.9 {
+        Vector::x()
+    } else {
+        Vector::y()
+    };
+    n.cross(&a).normalize()
+}
