@@ -1,7 +1,7 @@
 //! # hair-io
 //!
 //! Hair and body file formats, with readers that never panic on bad bytes and name what is wrong,
-//! and writers that keep what a file said.
+//! writers that keep what a file said, and an animated export to Pixar's USD.
 //!
 //! | item | what it reads and writes |
 //! |---|---|
@@ -10,9 +10,12 @@
 //! | [`cyhair`] | Cem Yuksel's `.hair` (binary, variable segments per strand) |
 //! | [`obj`] | Wavefront OBJ bodies as indexed triangles (via `tobj`) |
 //! | [`read_strands`], [`write_strands`], [`write_strands_lossy`] | by file extension; [`Lost`] names what a format cannot hold |
+//! | [`usda::UsdaWriter`] | USD `.usda`: body `Mesh` and animated `BasisCurves`, streamed frame by frame |
+//! | [`npy::NpyPointsWriter`] | NumPy `.npy` float32 `[frames, points, 3]`, streamed, to check an export |
 //!
 //! ```
-//! use hair_io::{Strands, cyhair};
+//! use hair_io::usda::{UsdStage, UsdaWriter};
+//! use hair_io::{Existing, Strands, cyhair};
 //!
 //! let strands = Strands::from_polylines(vec![
 //!     vec![[0.0, 0.0, 0.0], [0.0, -0.1, 0.0], [0.0, -0.2, 0.01]],
@@ -20,17 +23,34 @@
 //! ])?;
 //! let back = cyhair::from_bytes(&cyhair::to_bytes(&strands), "inline.hair")?;
 //! assert_eq!(back, strands);
+//!
+//! let path = std::env::temp_dir().join(format!("hair-io-doc-{}.usda", std::process::id()));
+//! let counts: Vec<u32> = strands.iter().map(|s| s.len() as u32).collect();
+//! let stage = UsdStage { time_codes_per_second: 24.0, ..UsdStage::default() };
+//! let mut usd = UsdaWriter::create(&path, &stage, None, &counts, &[0.001], Existing::Keep)?;
+//! for frame in 0..3 {
+//!     let sway = frame as f32 * 0.01;
+//!     usd.write_frame(f64::from(frame), strands.points.iter().map(|p| [p[0] + sway, p[1], p[2]]))?;
+//! }
+//! usd.finish()?;
+//! assert!(std::fs::read_to_string(&path).unwrap().contains("endTimeCode = 2 "));
+//! # std::fs::remove_file(&path).unwrap();
 //! # Ok::<(), hair_io::IoError>(())
 //! ```
 
 pub mod cyhair;
 mod error;
+mod frames;
+pub mod npy;
 pub mod obj;
+mod partial;
 mod strands;
 pub mod tfx;
+pub mod usda;
 
 pub use error::IoError;
 pub use obj::Mesh;
+pub use partial::Existing;
 pub use strands::{Lost, Strands};
 
 use std::path::Path;
