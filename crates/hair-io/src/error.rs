@@ -137,7 +137,10 @@ pub enum IoError {
         message: String,
     },
     /// Writing would drop something the strands hold; the lossy writer drops it on request.
-    #[error("{file}: not written, the format cannot hold {}", list(lost))]
+    #[error(
+        "{file}: not written: the format cannot hold {}; a lossy write drops them",
+        list(lost)
+    )]
     WouldLose {
         /// The file.
         file: String,

@@ -70,8 +70,8 @@ impl std::fmt::Display for Lost {
                 value,
             } => write!(
                 f,
-                "TressFX pins: w = {value} at strand {strand}, point {point}, where only roots \
-                 are pinned (w = 0 at roots, 1 elsewhere) without it"
+                "TressFX pins (w = {value} at strand {strand}, point {point}; without them \
+                 only the roots are pinned)"
             ),
             Lost::ThicknessAlongStrand { strand } => {
                 write!(f, "thickness varying along strand {strand}")
