@@ -460,7 +460,8 @@ mod tests {
     use super::*;
 
     /// Every finite `f32`, printed by [`push_f32`], parsed as a double and narrowed, is itself.
-    /// About six minutes in a release build: `cargo test -p hair-io --release -- --ignored`.
+    /// About 13 minutes in a release build on the 2-core machine:
+    /// `cargo test -p hair-io --release --lib -- --ignored every_f32_survives_a_double_parse`.
     #[test]
     #[ignore = "scans all 4 billion f32 values"]
     fn every_f32_survives_a_double_parse() {
