@@ -1,8 +1,12 @@
 //! Plain strand data shared by every format.
 
 use crate::IoError;
+use crate::cyhair;
 
 /// Strands as flat arrays: the points of strand `s` are `points[offsets[s]..offsets[s + 1]]`.
+///
+/// Besides the points, a strand set keeps what its file said so that writing it back says the
+/// same: the optional per-point arrays, TressFX's per-point w and the `.hair` header.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Strands {
     /// Every point, root first within each strand (file units).
@@ -15,6 +19,68 @@ pub struct Strands {
     pub transparency: Option<Vec<f32>>,
     /// Per-point colour, if the file has it.
     pub colors: Option<Vec<[f32; 3]>>,
+    /// TressFX's per-point w, the inverse mass (0 pins a point, 1 leaves it free), as a `.tfx`
+    /// file gave it. `None` when the file has none (`.hair`): the roots are pinned and nothing
+    /// else, which is also what the `.tfx` writer then writes.
+    pub inverse_mass: Option<Vec<f32>>,
+    /// The `.hair` header's defaults and text ([`cyhair::Header::default`] for strands from
+    /// elsewhere).
+    pub hair_header: cyhair::Header,
+}
+
+/// Something a format cannot hold, named before a file is written without it.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Lost {
+    /// TressFX pins other than "roots pinned, the rest free" (the first point that differs).
+    Pins {
+        /// The strand.
+        strand: usize,
+        /// The point within the strand.
+        point: usize,
+        /// Its w.
+        value: f32,
+    },
+    /// Thickness that varies along a strand (the first such strand).
+    ThicknessAlongStrand {
+        /// The strand.
+        strand: usize,
+    },
+    /// A per-point array the format has no room for.
+    Array {
+        /// Which array.
+        field: &'static str,
+    },
+    /// A `.hair` header default that stands for every point and differs from hair-io's
+    /// default.
+    Default {
+        /// Which default.
+        field: &'static str,
+    },
+    /// The `.hair` header's text.
+    HeaderText,
+}
+
+impl std::fmt::Display for Lost {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Lost::Pins {
+                strand,
+                point,
+                value,
+            } => write!(
+                f,
+                "TressFX pins (w = {value} at strand {strand}, point {point}; without them \
+                 only the roots are pinned)"
+            ),
+            Lost::ThicknessAlongStrand { strand } => {
+                write!(f, "thickness varying along strand {strand}")
+            }
+            Lost::Array { field } => write!(f, "the per-point {field} array"),
+            Lost::Default { field } => write!(f, "the header's default {field}"),
+            Lost::HeaderText => write!(f, "the header text"),
+        }
+    }
 }
 
 impl Strands {
@@ -50,6 +116,15 @@ impl Strands {
         })
     }
 
+    /// The thickness of point `i` (an index into `points`): its own, or the `.hair` header's
+    /// default when there is no thickness array.
+    pub fn thickness_at(&self, i: usize) -> f32 {
+        self.thickness
+            .as_ref()
+            .and_then(|t| t.get(i).copied())
+            .unwrap_or(self.hair_header.default_thickness)
+    }
+
     /// Number of strands.
     pub fn strand_count(&self) -> usize {
         self.offsets.len().saturating_sub(1)
@@ -65,8 +140,46 @@ impl Strands {
         (0..self.strand_count()).map(|s| self.strand(s))
     }
 
-    /// Checks every point is finite and every strand has at least two points.
-    pub(crate) fn validate(&self, file: &str) -> Result<(), IoError> {
+    /// Checks the arrays agree in length, the offsets rise from 0 to the point count, every
+    /// value is finite and every strand has at least two points.
+    pub fn validate(&self, file: &str) -> Result<(), IoError> {
+        let inconsistent = |message: String| IoError::Inconsistent {
+            file: file.into(),
+            message,
+        };
+        let n = self.points.len();
+        if self.offsets.first().is_some_and(|&o| o != 0) {
+            return Err(inconsistent(format!(
+                "offsets[0] is {}, not 0",
+                self.offsets[0]
+            )));
+        }
+        if let Some(s) = self.offsets.windows(2).position(|w| w[1] < w[0]) {
+            return Err(inconsistent(format!(
+                "offsets[{}] = {} is below offsets[{s}] = {}",
+                s + 1,
+                self.offsets[s + 1],
+                self.offsets[s]
+            )));
+        }
+        let last = self.offsets.last().map_or(0, |&o| o as usize);
+        if last != n {
+            return Err(inconsistent(format!(
+                "the offsets end at {last} but there are {n} points"
+            )));
+        }
+        for (field, len) in [
+            ("thickness", self.thickness.as_ref().map(Vec::len)),
+            ("transparency", self.transparency.as_ref().map(Vec::len)),
+            ("colors", self.colors.as_ref().map(Vec::len)),
+            ("inverse_mass", self.inverse_mass.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len.filter(|&len| len != n) {
+                return Err(inconsistent(format!(
+                    "`{field}` has {len} values for {n} points"
+                )));
+            }
+        }
         for s in 0..self.strand_count() {
             let strand = self.strand(s);
             if strand.len() < 2 {
@@ -91,6 +204,10 @@ impl Strands {
                     (
                         "transparency",
                         self.transparency.as_ref().map(|t| t[base + i]),
+                    ),
+                    (
+                        "inverse_mass",
+                        self.inverse_mass.as_ref().map(|t| t[base + i]),
                     ),
                 ];
                 for (field, v) in extra {

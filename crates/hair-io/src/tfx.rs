@@ -5,13 +5,13 @@
 //! | 0 | f32 | version |
 //! | 4 | u32 | strand count |
 //! | 8 | u32 | vertices per strand |
-//! | 12 | u32 | byte offset of vertex positions (4 x f32 each, root first) |
+//! | 12 | u32 | byte offset of vertex positions (x, y, z, w as f32, root first; w = 0 pins) |
 //! | 16, 20 | u32 | byte offsets of per-strand and per-vertex UVs (0 = absent; not read) |
 //! | 24 | u32 | byte offset of per-strand thickness (f32 each; 0 = absent) |
 //! | 28 | u32 | byte offset of per-vertex colours (0 = absent; not read) |
 
 use crate::strands::{Reader, f32s};
-use crate::{IoError, Strands};
+use crate::{IoError, Lost, Strands, cyhair};
 
 const HEADER: u64 = 160;
 
@@ -56,9 +56,11 @@ pub fn from_bytes(bytes: &[u8], file: &str) -> Result<Strands, IoError> {
     let count = strands.saturating_mul(per);
     let raw = r.slice("vertex positions", pos_at, count.saturating_mul(16))?;
     let mut points = Vec::with_capacity(count as usize);
+    let mut inverse_mass = Vec::with_capacity(count as usize);
     let mut it = f32s(raw);
-    while let (Some(x), Some(y), Some(z), Some(_w)) = (it.next(), it.next(), it.next(), it.next()) {
+    while let (Some(x), Some(y), Some(z), Some(w)) = (it.next(), it.next(), it.next(), it.next()) {
         points.push([x, y, z]);
+        inverse_mass.push(w);
     }
     let offsets = (0..=strands).map(|s| (s * per) as u32).collect();
     let thickness = if thick_at != 0 {
@@ -79,14 +81,58 @@ pub fn from_bytes(bytes: &[u8], file: &str) -> Result<Strands, IoError> {
         thickness,
         transparency: None,
         colors: None,
+        inverse_mass: Some(inverse_mass),
+        hair_header: cyhair::Header::default(),
     };
     out.validate(file)?;
     Ok(out)
 }
 
-/// Writes a `.tfx` image. Every strand must have the same number of points (2 to 64); thickness,
-/// when present, is written per strand from each strand's root value.
+/// What writing `strands` as `.tfx` would drop: thickness varying along a strand (`.tfx` holds
+/// one per strand), transparency and colours (not written), and the `.hair` header's
+/// transparency, colour and text where they differ from hair-io's defaults.
+pub fn losses(strands: &Strands) -> Vec<Lost> {
+    let mut lost = Vec::new();
+    if let Some(t) = &strands.thickness
+        && let Some(strand) = (0..strands.strand_count()).find(|&s| {
+            let range = strands.offsets[s] as usize..strands.offsets[s + 1] as usize;
+            t[range.clone()]
+                .iter()
+                .any(|v| v.to_bits() != t[range.start].to_bits())
+        })
+    {
+        lost.push(Lost::ThicknessAlongStrand { strand });
+    }
+    let standard = cyhair::Header::default();
+    let h = &strands.hair_header;
+    if strands.transparency.is_some() {
+        lost.push(Lost::Array {
+            field: "transparency",
+        });
+    } else if h.default_transparency.to_bits() != standard.default_transparency.to_bits() {
+        lost.push(Lost::Default {
+            field: "transparency",
+        });
+    }
+    if strands.colors.is_some() {
+        lost.push(Lost::Array { field: "colour" });
+    } else if h.default_color.map(f32::to_bits) != standard.default_color.map(f32::to_bits) {
+        lost.push(Lost::Default { field: "colour" });
+    }
+    if h.info != standard.info && h.info.iter().any(|&b| b != 0) {
+        lost.push(Lost::HeaderText);
+    }
+    lost
+}
+
+/// Writes a `.tfx` image. Every strand must have the same number of points (2 to 64).
+///
+/// Thickness is written per strand from each strand's root value, or from the `.hair` header's
+/// default thickness when there is no thickness array and that default is not 1. The w of each
+/// point is [`Strands::inverse_mass`], or 0 at the roots and 1 elsewhere when it is `None`.
+/// What `.tfx` cannot hold is dropped here; [`losses`] names it.
 pub fn to_bytes(strands: &Strands, file: &str) -> Result<Vec<u8>, IoError> {
+    strands.validate(file)?;
     let n = strands.strand_count();
     if n == 0 {
         return Err(IoError::Unwritable {
@@ -111,7 +157,15 @@ pub fn to_bytes(strands: &Strands, file: &str) -> Result<Vec<u8>, IoError> {
         });
     }
     let pos_bytes = (n * per * 16) as u64;
-    let thick_at = if strands.thickness.is_some() {
+    let default_thickness = strands.hair_header.default_thickness;
+    let write_thickness = strands.thickness.is_some() || default_thickness != 1.0;
+    if HEADER + pos_bytes + (n as u64) * 4 > u64::from(u32::MAX) {
+        return Err(IoError::Unwritable {
+            file: file.into(),
+            message: format!("{n} strands of {per} points exceed .tfx's 32-bit offsets"),
+        });
+    }
+    let thick_at = if write_thickness {
         HEADER + pos_bytes
     } else {
         0
@@ -130,14 +184,20 @@ pub fn to_bytes(strands: &Strands, file: &str) -> Result<Vec<u8>, IoError> {
         out.extend_from_slice(&v.to_le_bytes());
     }
     out.resize(HEADER as usize, 0);
-    for p in &strands.points {
-        for c in [p[0], p[1], p[2], 1.0] {
+    for (i, p) in strands.points.iter().enumerate() {
+        let w = match &strands.inverse_mass {
+            Some(w) => w[i],
+            None if i % per == 0 => 0.0,
+            None => 1.0,
+        };
+        for c in [p[0], p[1], p[2], w] {
             out.extend_from_slice(&c.to_le_bytes());
         }
     }
-    if let Some(t) = &strands.thickness {
+    if write_thickness {
         for s in 0..n {
-            out.extend_from_slice(&t[strands.offsets[s] as usize].to_le_bytes());
+            let root = strands.offsets[s] as usize;
+            out.extend_from_slice(&strands.thickness_at(root).to_le_bytes());
         }
     }
     Ok(out)
