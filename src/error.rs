@@ -57,6 +57,9 @@ pub enum HairError {
     /// A collision stage failed (a correction the strand state refused, or the grid's input).
     #[error("collision: {0}")]
     Collide(#[from] hair_collide::CollideError),
+    /// A salon tool's change failed.
+    #[error("tools: {0}")]
+    Tools(#[from] hair_salon::ToolError),
     /// The level-of-detail layer rejected a transition.
     #[error("lod: {0}")]
     Lod(#[from] hair_lod::LodError),
@@ -103,4 +106,14 @@ pub enum HairError {
         #[source]
         source: hair_ssv::SsvError,
     },
+}
+
+impl From<hair_salon::SalonError> for HairError {
+    fn from(e: hair_salon::SalonError) -> Self {
+        HairError::SceneValue {
+            file: "tool script".into(),
+            field: "tools".into(),
+            message: e.to_string(),
+        }
+    }
 }

@@ -28,6 +28,7 @@ pub use hair_dynamics as dynamics;
 pub use hair_grid as grid;
 pub use hair_io as io;
 pub use hair_lod as lod;
+pub use hair_salon as salon;
 pub use hair_ssv as ssv;
 
 mod body;
@@ -35,7 +36,6 @@ pub mod drivers;
 mod error;
 pub mod hairstyle;
 mod render_geometry;
-pub mod salon;
 pub mod scene;
 mod simulation;
 

@@ -4,7 +4,10 @@
 //! Ward & Lin §3: skeletons are the simulation's base curves; strands, clusters and strips are
 //! built around them for rendering only.
 
-use hair_ssv::{Point, Real};
+use hair_dynamics::{HeadMotion, SkeletonId, StrandState};
+use hair_lod::Hierarchy;
+use hair_salon::Salon;
+use hair_ssv::{Point, Real, Vector};
 use nalgebra::Matrix3;
 
 /// Rendered strands around skeletons, with their output polylines (world frame).
@@ -147,6 +150,109 @@ impl RenderGeometry {
     /// The output polyline of strand `s`.
     pub fn strand(&self, s: usize) -> &[Point] {
         &self.positions[self.offsets[s] as usize..self.offsets[s + 1] as usize]
+    }
+}
+
+/// The rendered strands' offsets from their skeletons, as the render stage holds them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CutStrands<'a> {
+    /// Per strand, the front node that draws it.
+    pub strand_node: &'a [u32],
+    /// Per node, where its strands' offsets start in `strand_local`.
+    pub node_local_start: &'a [u32],
+    /// Each strand's offset per control point in its node's rest transport frames.
+    pub strand_local: &'a [Vector],
+    /// Control points per strand.
+    pub per: usize,
+}
+
+/// The drawn strands after the salon's cuts, with their scratch buffers.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CutRender {
+    frames: Vec<Matrix3<Real>>,
+    curve: Vec<Point>,
+    control: Vec<Point>,
+}
+
+impl CutRender {
+    /// Render geometry after cuts: every cut strand ends where its skeleton now ends, and every
+    /// fallen piece that is not swept draws the strands of the node it was cut from, at their
+    /// offsets from the original control points. Nothing to do before the first cut.
+    pub(crate) fn apply(
+        &mut self,
+        salon: &Salon,
+        state: &StrandState,
+        h: &Hierarchy,
+        strands: &CutStrands<'_>,
+        head: &HeadMotion,
+        out: &mut RenderGeometry,
+    ) {
+        if salon.stats().cuts == 0 {
+            return;
+        }
+        let CutStrands {
+            strand_node,
+            node_local_start,
+            strand_local,
+            per,
+        } = *strands;
+        let sub = out.subdivisions.max(1);
+        let verts_of = |n: usize| {
+            if sub <= 1 || n < 2 {
+                n
+            } else {
+                sub * (n - 1) + 1
+            }
+        };
+        // Compact: strand s keeps the vertices of its live control points.
+        let strands = out.strand_count();
+        let mut write = 0usize;
+        for s in 0..strands.min(strand_node.len()) {
+            let start = out.offsets[s] as usize;
+            let full = out.offsets[s + 1] as usize - start;
+            let live = state.nodes(SkeletonId(strand_node[s])).len().min(per);
+            let keep = verts_of(live).min(full);
+            out.positions.copy_within(start..start + keep, write);
+            out.offsets[s] = write as u32;
+            write += keep;
+        }
+        out.offsets.truncate(strands.min(strand_node.len()) + 1);
+        if let Some(last) = out.offsets.last_mut() {
+            *last = write as u32;
+        }
+        out.positions.truncate(write);
+        // Fallen pieces.
+        let rot = head.rotation;
+        let origin = head.position;
+        for f in salon.fallen_pieces() {
+            if f.swept || (f.source as usize) >= h.node_count() {
+                continue;
+            }
+            let id = f.skeleton;
+            let r = state.nodes(id);
+            let p = &state.positions()[r.clone()];
+            transport_frames(p, state.root_frame(id).matrix(), &mut self.frames);
+            // Offsets of the source node's strands start here, `per` per strand.
+            let base = node_local_start
+                .get(f.source as usize)
+                .map_or(usize::MAX, |&b| b as usize);
+            for slot in 0..h.strands(f.source).len() {
+                self.control.clear();
+                for (j, pj) in p.iter().enumerate() {
+                    let k = (f.first_source as usize + j).saturating_sub(1).min(per - 1);
+                    let local = strand_local
+                        .get(base.saturating_add(slot * per + k))
+                        .copied()
+                        .unwrap_or_default();
+                    self.control
+                        .push(origin + rot * (pj.coords + self.frames[j] * local));
+                }
+                self.curve.clear();
+                catmull_rom(&self.control, sub, &mut self.curve);
+                out.positions.extend_from_slice(&self.curve);
+                out.offsets.push(out.positions.len() as u32);
+            }
+        }
     }
 }
 

@@ -47,7 +47,7 @@ pub struct Scene {
     pub head_motion: HeadMotionSpec,
     /// The salon tool script: a timeline of tool events and the tools' settings
     /// (`docs/salon.md`).
-    pub tools: crate::salon::ToolScript,
+    pub tools: hair_salon::ToolScript,
 }
 
 impl Default for Scene {
@@ -70,7 +70,7 @@ impl Default for Scene {
             light: LightSpec::default(),
             wind: WindSpec::default(),
             head_motion: HeadMotionSpec::Still,
-            tools: crate::salon::ToolScript::default(),
+            tools: hair_salon::ToolScript::default(),
         }
     }
 }

@@ -5,7 +5,8 @@
 //! renderer and to the next step is never inside the body by more than the stated tolerance.
 
 use crate::render_geometry::{
-    RenderGeometry, catmull_rom_into, transport_frames, transport_frames_into,
+    CutRender, CutStrands, RenderGeometry, catmull_rom_into, transport_frames,
+    transport_frames_into,
 };
 use crate::scene::{IntegratorSpec, LodPolicy, Scene, TorqueSpec};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
@@ -81,7 +82,7 @@ pub struct StepStats {
     // salon (issue 8): tool counters, flattened into the per-frame metrics.
     /// Salon tool counters (water, bonds, cuts, fallen pieces, grabbed points).
     #[serde(flatten)]
-    pub salon: crate::salon::SalonStats,
+    pub salon: hair_salon::SalonStats,
 }
 
 /// A scene being simulated.
@@ -135,7 +136,9 @@ pub struct Simulation {
     frame_render: RenderGeometry,
     initial: StrandState,
     // salon (issue 8): the tool script's state.
-    salon: crate::salon::Salon,
+    salon: hair_salon::Salon,
+    /// The drawn strands' ends after cuts, and the fallen pieces.
+    cut_render: CutRender,
 }
 
 fn integrator(spec: IntegratorSpec) -> Integrator {
@@ -290,10 +293,11 @@ impl Simulation {
             previous_render: Vec::new(),
             frame_render: RenderGeometry::default(),
             points_per_strand,
-            salon: crate::salon::Salon::default(),
+            salon: hair_salon::Salon::default(),
+            cut_render: CutRender::default(),
         };
         // salon (issue 8): tools over the initial state.
-        sim.salon = crate::salon::Salon::new(
+        sim.salon = hair_salon::Salon::new(
             &sim.scene.tools,
             &sim.state,
             &sim.hierarchy,
@@ -356,7 +360,7 @@ impl Simulation {
 
     // salon (issue 8): read access to the tools' state.
     /// The salon tools: pressed tools, grabbed points, fallen pieces, per-node factors.
-    pub fn salon(&self) -> &crate::salon::Salon {
+    pub fn salon(&self) -> &hair_salon::Salon {
         &self.salon
     }
 
@@ -373,7 +377,7 @@ impl Simulation {
     /// are: in time order, not before the simulated time, moves and releases of pressed tools
     /// only). Use [`Simulation::next_event_time`] for its time; a script of the same events
     /// then replays to the same state.
-    pub fn push_tool_event(&mut self, event: crate::salon::ToolEvent) -> Result<(), HairError> {
+    pub fn push_tool_event(&mut self, event: hair_salon::ToolEvent) -> Result<(), HairError> {
         self.salon.push_event(event.clone(), self.time)?;
         self.scene.tools.events.push(event);
         Ok(())
@@ -780,7 +784,7 @@ impl Simulation {
         // salon (issue 8): the tool script's events and the pressed tools, after the dynamics.
         stats.salon = self.salon.step(
             &mut self.state,
-            &crate::salon::SalonInput {
+            &hair_salon::SalonInput {
                 hierarchy: &self.hierarchy,
                 front: &self.front_nodes,
                 grid: &self.grid,
@@ -826,13 +830,16 @@ impl Simulation {
             });
         }
         // salon (issue 8): cut strands end at the cut; fallen pieces are drawn.
-        self.salon.render(
+        self.cut_render.apply(
+            &self.salon,
             &self.state,
             &self.hierarchy,
-            &self.strand_node,
-            &self.node_local_start,
-            &self.strand_local,
-            self.points_per_strand,
+            &CutStrands {
+                strand_node: &self.strand_node,
+                node_local_start: &self.node_local_start,
+                strand_local: &self.strand_local,
+                per: self.points_per_strand,
+            },
             &drivers::head_motion(&self.scene.head_motion, self.time),
             &mut self.render,
         );

@@ -1,4 +1,4 @@
-//! Salon tools: water, hairspray, mousse, hair dryer, grab and scissors, driven by a timeline of
+//! The tools' state over a simulation: water, hairspray, mousse, hair dryer, grab and scissors, driven by a timeline of
 //! [`ToolEvent`]s (Ward, Galoppo & Lin, *Interactive Virtual Hair Salon*, §3.1, §4.3-4.4, §6).
 //!
 //! Why a timeline: a styling session is then plain data (the scene's `tools` field, RON), replays
@@ -20,8 +20,8 @@
 //! strand (the paper's percentage, in kg of water per skeleton control point): the water of the
 //! hair is `sum over skeletons of strands * wetness`, the same on every front. See `docs/salon.md`.
 
-use crate::HairError;
-use crate::render_geometry::{RenderGeometry, catmull_rom, transport_frames};
+use crate::script::vec3;
+use crate::{SalonError, Tool, ToolAction, ToolError, ToolEvent, ToolScript};
 use hair_dynamics::{
     Bond, CutPoint, HeadMotion, NodeCorrection, Point, Real, SkeletonId, StrandState, Vector,
     VelocityConstraint,
@@ -29,476 +29,10 @@ use hair_dynamics::{
 use hair_grid::{Cone, Grid, InfluenceVolume, Section};
 use hair_lod::Hierarchy;
 use hair_ssv::MeshBody;
-use nalgebra::Matrix3;
-use serde::{Deserialize, Serialize};
-use thiserror::Error;
-
-/// The salon tools.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum Tool {
-    /// Wets the hair in its cone: heavier nodes, thinner sections, stretching curls.
-    Water,
-    /// Hairspray: stiffens the springs and bonds sections in contact.
-    Spray,
-    /// Volume mousse: grows the sections' radius.
-    Mousse,
-    /// Hair dryer: a strong force along its direction; dries; pulls bonds apart.
-    Dryer,
-    /// Grab: one control point per skeleton follows the tool.
-    Grab,
-    /// Scissors: cuts the skeletons crossing the triangle between the blades.
-    Scissors,
-}
-
-impl Tool {
-    /// Every tool, in the order they are applied within a step.
-    pub const ALL: [Tool; 6] = [
-        Tool::Water,
-        Tool::Spray,
-        Tool::Mousse,
-        Tool::Dryer,
-        Tool::Grab,
-        Tool::Scissors,
-    ];
-
-    /// A short lowercase name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Tool::Water => "water",
-            Tool::Spray => "spray",
-            Tool::Mousse => "mousse",
-            Tool::Dryer => "dryer",
-            Tool::Grab => "grab",
-            Tool::Scissors => "scissors",
-        }
-    }
-
-    fn index(self) -> usize {
-        self as usize
-    }
-}
-
-/// What an event does to its tool.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ToolAction {
-    /// Press the button: the tool starts acting at the event's pose (scissors: close the blades
-    /// once, a snip; grab: take one control point per skeleton inside the cone).
-    Press,
-    /// Move a pressed tool to a new pose or path, with the event's strength, reach and angle
-    /// (scissors: another snip there).
-    Move,
-    /// Release the button: the tool stops (grabbed points fall, the dryer's force goes).
-    Release,
-}
-
-/// A tool's pose (world frame).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Pose {
-    /// Tip of the tool (m).
-    pub position: [f32; 3],
-    /// Direction the tool points (not zero; normalised on use).
-    pub direction: [f32; 3],
-    /// Scissors only: the blades open in the plane of `direction` and `up x direction`.
-    pub up: [f32; 3],
-}
-
-impl Default for Pose {
-    fn default() -> Self {
-        Self {
-            position: [0.0; 3],
-            direction: [0.0, 0.0, -1.0],
-            up: [0.0, 1.0, 0.0],
-        }
-    }
-}
-
-/// A later pose of a path: the tool moves linearly (position) and by normalised interpolation
-/// (direction, up) from the previous key, and stays at the last one.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PoseKey {
-    /// Time (s, absolute; after the event's and the previous key's).
-    pub time: f32,
-    /// The pose at that time.
-    pub pose: Pose,
-}
-
-fn one() -> f32 {
-    1.0
-}
-fn default_reach() -> f32 {
-    0.15
-}
-fn default_angle() -> f32 {
-    0.35
-}
-
-/// One event of a styling session: a tool pressed, moved or released at a time.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ToolEvent {
-    /// When (s); events are in time order.
-    pub time: f32,
-    /// Which tool.
-    pub tool: Tool,
-    /// Press, move or release.
-    pub action: ToolAction,
-    /// Pose at `time` (ignored by `Release`).
-    #[serde(default)]
-    pub pose: Pose,
-    /// Later poses the tool follows while held (until the next event of the same tool).
-    #[serde(default)]
-    pub path: Vec<PoseKey>,
-    /// Strength, a multiple of the tool's nominal effect ([`SalonSettings`]); >= 0.
-    #[serde(default = "one")]
-    pub strength: f32,
-    /// Reach of the cone along its axis, or blade length of the scissors (m, >= 0).
-    #[serde(default = "default_reach")]
-    pub reach: f32,
-    /// Cut-off (half) angle of the cone, or half the opening of the blades (rad, in [0, pi/2)).
-    #[serde(default = "default_angle")]
-    pub angle: f32,
-}
-
-/// Nominal effects of the tools (SI units) and the limits of the cut.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SalonSettings {
-    /// Water added per control point in the water's cone at strength 1 (kg/s).
-    pub water_rate: f32,
-    /// Most water a control point holds, as a multiple of its dry mass.
-    pub saturation: f32,
-    /// Fraction of the radius lost when a control point is saturated (wet hair clumps).
-    pub wet_shrink: f32,
-    /// Axial stiffness of a wet, fully curled segment (N per unit strain); divided by the wet
-    /// fraction and the curl, so wetter and curlier hair stretches more.
-    pub wet_stretch_stiffness: f32,
-    /// Bend (rad) of a rest joint counted as fully curled.
-    pub curl_angle: f32,
-    /// Growth of the spring factor per second under spray at strength 1.
-    pub spray_rate: f32,
-    /// Largest spring factor spray gives.
-    pub max_stiffness: f32,
-    /// Stiffness of a spray bond (N/m).
-    pub bond_stiffness: f32,
-    /// A bond breaks when stretched this far past its rest distance (m).
-    pub bond_break_stretch: f32,
-    /// Most bonds per control point.
-    pub bonds_per_node: u32,
-    /// Growth of the radius factor per second under mousse at strength 1.
-    pub mousse_rate: f32,
-    /// Largest radius factor mousse gives.
-    pub max_thickness: f32,
-    /// Force of the dryer at its nozzle at strength 1 (N per control point), fading to zero at
-    /// its reach.
-    pub dryer_force: f32,
-    /// Water the dryer removes per control point at strength 1 (kg/s).
-    pub dry_rate: f32,
-    /// No piece shorter than this is cut off or left on the scalp (m).
-    pub min_cut_length: f32,
-    /// Fallen pieces entirely below this height (m, head frame) are swept up: no longer
-    /// simulated or drawn (their water and length still count).
-    pub floor_height: f32,
-}
-
-impl Default for SalonSettings {
-    fn default() -> Self {
-        Self {
-            water_rate: 2e-4,
-            saturation: 1.0,
-            wet_shrink: 0.5,
-            wet_stretch_stiffness: 0.5,
-            curl_angle: 0.6,
-            spray_rate: 3.0,
-            max_stiffness: 8.0,
-            bond_stiffness: 0.05,
-            bond_break_stretch: 0.01,
-            bonds_per_node: 2,
-            mousse_rate: 1.0,
-            max_thickness: 3.0,
-            dryer_force: 4e-3,
-            dry_rate: 2e-4,
-            min_cut_length: 2e-3,
-            floor_height: -0.8,
-        }
-    }
-}
-
-/// The scene's tool script: the events of a session and the tools' settings.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ToolScript {
-    /// Events, in time order.
-    pub events: Vec<ToolEvent>,
-    /// Nominal effects and limits.
-    pub settings: SalonSettings,
-}
-
-/// A bad tool script; every message names the event (its index and time).
-#[derive(Debug, Error, Clone, PartialEq)]
-#[non_exhaustive]
-pub enum SalonError {
-    /// An event comes before the one listed ahead of it.
-    #[error(
-        "tool event {index} ({tool} at t = {time} s) is out of time order: the previous event is at t = {previous} s"
-    )]
-    OutOfOrder {
-        /// Index of the event in the script.
-        index: usize,
-        /// Its tool.
-        tool: &'static str,
-        /// Its time.
-        time: f32,
-        /// The previous event's time.
-        previous: f32,
-    },
-    /// A value of an event is invalid.
-    #[error("tool event {index} ({tool} at t = {time} s): `{field}` {message}")]
-    Value {
-        /// Index of the event in the script.
-        index: usize,
-        /// Its tool.
-        tool: &'static str,
-        /// Its time.
-        time: f32,
-        /// The field.
-        field: &'static str,
-        /// What is wrong.
-        message: String,
-    },
-    /// A move or release of a tool that is not pressed.
-    #[error("tool event {index} ({tool} at t = {time} s): {action} of a tool that is not pressed")]
-    NotPressed {
-        /// Index of the event in the script.
-        index: usize,
-        /// Its tool.
-        tool: &'static str,
-        /// Its time.
-        time: f32,
-        /// `move` or `release`.
-        action: &'static str,
-    },
-    /// A setting is out of range.
-    #[error("tool settings: `{field}` {message}")]
-    Setting {
-        /// The field.
-        field: &'static str,
-        /// What is wrong.
-        message: String,
-    },
-}
-
-impl From<SalonError> for HairError {
-    fn from(e: SalonError) -> Self {
-        HairError::SceneValue {
-            file: "tool script".into(),
-            field: "tools".into(),
-            message: e.to_string(),
-        }
-    }
-}
-
-fn finite3(v: &[f32; 3]) -> bool {
-    v.iter().all(|x| x.is_finite())
-}
-
-fn vec3(v: &[f32; 3]) -> Vector {
-    Vector::new(v[0], v[1], v[2])
-}
-
-impl ToolScript {
-    /// Checks every event and setting: finite poses with non-zero directions (scissors: `up`
-    /// not along the direction), non-negative strength and reach, angles in `[0, pi/2)`, path
-    /// keys after their event and in order, events in time order, and moves and releases only
-    /// of pressed tools.
-    pub fn validate(&self) -> Result<(), SalonError> {
-        let s = &self.settings;
-        for (field, v) in [
-            ("water_rate", s.water_rate),
-            ("saturation", s.saturation),
-            ("wet_shrink", s.wet_shrink),
-            ("wet_stretch_stiffness", s.wet_stretch_stiffness),
-            ("curl_angle", s.curl_angle),
-            ("spray_rate", s.spray_rate),
-            ("max_stiffness", s.max_stiffness),
-            ("bond_stiffness", s.bond_stiffness),
-            ("bond_break_stretch", s.bond_break_stretch),
-            ("mousse_rate", s.mousse_rate),
-            ("max_thickness", s.max_thickness),
-            ("dryer_force", s.dryer_force),
-            ("dry_rate", s.dry_rate),
-            ("min_cut_length", s.min_cut_length),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(SalonError::Setting {
-                    field,
-                    message: format!("must be non-negative and finite, got {v}"),
-                });
-            }
-        }
-        if s.wet_shrink >= 1.0 {
-            return Err(SalonError::Setting {
-                field: "wet_shrink",
-                message: "must be below 1".into(),
-            });
-        }
-        if s.curl_angle <= 0.0 {
-            return Err(SalonError::Setting {
-                field: "curl_angle",
-                message: "must be positive".into(),
-            });
-        }
-        if !(s.max_stiffness >= 1.0 && s.max_thickness >= 1.0) {
-            return Err(SalonError::Setting {
-                field: "max_stiffness",
-                message: "max_stiffness and max_thickness must be at least 1".into(),
-            });
-        }
-        if !s.floor_height.is_finite() {
-            return Err(SalonError::Setting {
-                field: "floor_height",
-                message: "must be finite".into(),
-            });
-        }
-        let mut pressed = [false; 6];
-        let mut previous = f32::NEG_INFINITY;
-        for (index, e) in self.events.iter().enumerate() {
-            let tool = e.tool.name();
-            let time = e.time;
-            let bad = |field: &'static str, message: String| SalonError::Value {
-                index,
-                tool,
-                time,
-                field,
-                message,
-            };
-            if !time.is_finite() {
-                return Err(bad("time", "must be finite".into()));
-            }
-            if time < previous {
-                return Err(SalonError::OutOfOrder {
-                    index,
-                    tool,
-                    time,
-                    previous,
-                });
-            }
-            previous = time;
-            if !(e.strength.is_finite() && e.strength >= 0.0) {
-                return Err(bad(
-                    "strength",
-                    format!("must be non-negative and finite, got {}", e.strength),
-                ));
-            }
-            if !(e.reach.is_finite() && e.reach >= 0.0) {
-                return Err(bad(
-                    "reach",
-                    format!("must be non-negative and finite, got {}", e.reach),
-                ));
-            }
-            if !(e.angle.is_finite() && e.angle >= 0.0 && e.angle < core::f32::consts::FRAC_PI_2) {
-                return Err(bad(
-                    "angle",
-                    format!("must be in [0, pi/2) rad, got {}", e.angle),
-                ));
-            }
-            let check_pose = |p: &Pose, field: &'static str| -> Result<(), SalonError> {
-                if !(finite3(&p.position) && finite3(&p.direction) && finite3(&p.up)) {
-                    return Err(bad(field, "must be finite".into()));
-                }
-                let d = vec3(&p.direction);
-                if d.norm() == 0.0 {
-                    return Err(bad(field, "has a zero direction".into()));
-                }
-                if e.tool == Tool::Scissors && vec3(&p.up).cross(&d).norm() <= 1e-6 * d.norm() {
-                    return Err(bad(field, "has `up` along the direction".into()));
-                }
-                Ok(())
-            };
-            if e.action != ToolAction::Release {
-                check_pose(&e.pose, "pose")?;
-                let mut t = time;
-                for k in &e.path {
-                    check_pose(&k.pose, "path")?;
-                    if !(k.time.is_finite() && k.time >= t) {
-                        return Err(bad(
-                            "path",
-                            format!("key at t = {} s is before the one ahead of it", k.time),
-                        ));
-                    }
-                    t = k.time;
-                }
-            }
-            let i = e.tool.index();
-            match e.action {
-                ToolAction::Press => pressed[i] = true,
-                ToolAction::Move | ToolAction::Release => {
-                    if !pressed[i] {
-                        return Err(SalonError::NotPressed {
-                            index,
-                            tool,
-                            time,
-                            action: if e.action == ToolAction::Move {
-                                "move"
-                            } else {
-                                "release"
-                            },
-                        });
-                    }
-                    if e.action == ToolAction::Release {
-                        pressed[i] = false;
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-impl ToolEvent {
-    /// The pose (world) at time `t` along the event's pose and path.
-    pub fn pose_at(&self, t: f32) -> Pose {
-        let mut a = (self.time, self.pose);
-        for k in &self.path {
-            if t <= k.time {
-                let span = k.time - a.0;
-                let f = if span > 0.0 {
-                    ((t - a.0) / span).clamp(0.0, 1.0)
-                } else {
-                    1.0
-                };
-                return lerp_pose(&a.1, &k.pose, f);
-            }
-            a = (k.time, k.pose);
-        }
-        a.1
-    }
-}
-
-fn lerp_pose(a: &Pose, b: &Pose, f: f32) -> Pose {
-    let mix = |x: &[f32; 3], y: &[f32; 3]| -> [f32; 3] {
-        [
-            x[0] + (y[0] - x[0]) * f,
-            x[1] + (y[1] - x[1]) * f,
-            x[2] + (y[2] - x[2]) * f,
-        ]
-    };
-    let dir = |x: &[f32; 3], y: &[f32; 3]| -> [f32; 3] {
-        let u = vec3(x).normalize();
-        let v = vec3(y).normalize();
-        let w = (u + (v - u) * f).try_normalize(1e-9).unwrap_or(v);
-        [w.x, w.y, w.z]
-    };
-    Pose {
-        position: mix(&a.position, &b.position),
-        direction: dir(&a.direction, &b.direction),
-        up: dir(&a.up, &b.up),
-    }
-}
 
 /// Counters of the salon, per step (serialized flat into the per-frame metrics).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct SalonStats {
     /// Water of the hair (kg): strands times wetness over the front and every fallen piece.
     pub water_kg: f64,
@@ -530,17 +64,38 @@ pub struct SalonStats {
 }
 
 /// Inputs of one salon stage, borrowed from the pipeline.
-pub(crate) struct SalonInput<'a> {
+pub struct SalonInput<'a> {
+    /// The LOD hierarchy (every node a skeleton of the state).
     pub hierarchy: &'a Hierarchy,
+    /// The hierarchy nodes being simulated.
     pub front: &'a [u32],
+    /// The grid over `sections`, rebuilt this step.
     pub grid: &'a Grid,
+    /// The front's sections.
     pub sections: &'a [Section],
+    /// The body fallen pieces land on.
     pub body: Option<&'a MeshBody>,
+    /// The head's motion at the end of the step.
     pub head: &'a HeadMotion,
     /// Simulated time at the end of the step (s).
     pub time: Real,
+    /// The step (s).
     pub dt: Real,
+    /// Coulomb friction of fallen pieces against the body.
     pub friction: Real,
+}
+
+/// A piece of hair a cut made: a free skeleton of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FallenPiece {
+    /// Its skeleton in the state.
+    pub skeleton: SkeletonId,
+    /// The hierarchy node it was cut from (whose strands it draws).
+    pub source: u32,
+    /// The control point of the source its first point was.
+    pub first_source: u32,
+    /// Whether it has been swept off the floor (no longer simulated nor drawn).
+    pub swept: bool,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -592,9 +147,6 @@ pub struct Salon {
     points: Vec<Point>,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
-    frames: Vec<Matrix3<Real>>,
-    curve: Vec<Point>,
-    control: Vec<Point>,
     stats: SalonStats,
     last_bonds: usize,
 }
@@ -602,7 +154,7 @@ pub struct Salon {
 impl Salon {
     /// The tools of a validated script over a simulation's initial state, whose skeleton `s`
     /// has the radius `skeleton_radius[s]` as built.
-    pub(crate) fn new(
+    pub fn new(
         script: &ToolScript,
         state: &StrandState,
         h: &Hierarchy,
@@ -617,7 +169,7 @@ impl Salon {
     }
 
     /// Back to the start of the script over `state` (the initial state).
-    pub(crate) fn reset(&mut self, state: &StrandState, h: &Hierarchy, skeleton_radius: &[Real]) {
+    pub fn reset(&mut self, state: &StrandState, h: &Hierarchy, skeleton_radius: &[Real]) {
         let n = state.node_count();
         self.cursor = 0;
         self.pressed = [None; 6];
@@ -658,7 +210,7 @@ impl Salon {
     /// Appends a live event to the script; `now` is the simulated time, before which every
     /// event has been consumed, so an event at or after it is still ahead. The script stays
     /// valid (time order, moves and releases of pressed tools) or the event is refused.
-    pub(crate) fn push_event(&mut self, event: ToolEvent, now: Real) -> Result<(), SalonError> {
+    pub fn push_event(&mut self, event: ToolEvent, now: Real) -> Result<(), SalonError> {
         let index = self.script.events.len();
         if event.time.is_nan() || event.time < now {
             return Err(SalonError::Value {
@@ -680,6 +232,16 @@ impl Salon {
     /// The areas of the pressed tools (head frame) as of the last step: their cells wake.
     pub fn volumes(&self) -> &[InfluenceVolume] {
         &self.volumes
+    }
+
+    /// The fallen pieces (swept ones included), in the order they fell.
+    pub fn fallen_pieces(&self) -> impl Iterator<Item = FallenPiece> + '_ {
+        self.fallen.iter().map(|f| FallenPiece {
+            skeleton: SkeletonId(f.skeleton),
+            source: f.source,
+            first_source: f.first_source,
+            swept: f.swept,
+        })
     }
 
     /// Skeletons of the fallen pieces (swept ones included).
@@ -716,11 +278,11 @@ impl Salon {
     /// One salon stage, after the dynamics of a step: the script's events up to the end of the
     /// step, then every pressed tool for one step, then the effects carried through the
     /// hierarchy, and the fallen pieces kept out of the body.
-    pub(crate) fn step(
+    pub fn step(
         &mut self,
         state: &mut StrandState,
         inp: &SalonInput<'_>,
-    ) -> Result<SalonStats, HairError> {
+    ) -> Result<SalonStats, ToolError> {
         let t0 = std::time::Instant::now();
         // Bonds that the dynamics broke since the last stage.
         let live = state.bonds().len();
@@ -876,7 +438,7 @@ impl Salon {
         inp: &SalonInput<'_>,
         cone: &Cone,
         out: &mut Vec<u32>,
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         inp.grid
             .cells_touched_by(&InfluenceVolume::Cone(*cone), &mut self.cells)?;
         out.clear();
@@ -911,7 +473,7 @@ impl Salon {
         inp: &SalonInput<'_>,
         tool: Tool,
         i: usize,
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         let vol = self.volume(i, inp.time, inp.head);
         let InfluenceVolume::Cone(cone) = vol else {
             return Ok(());
@@ -979,7 +541,7 @@ impl Salon {
         state: &mut StrandState,
         inp: &SalonInput<'_>,
         hits: &[u32],
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         let st = self.script.settings;
         self.section_mark.clear();
         self.section_mark.resize(inp.sections.len(), false);
@@ -1070,7 +632,7 @@ impl Salon {
         state: &mut StrandState,
         inp: &SalonInput<'_>,
         i: usize,
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         self.grabs.clear();
         let vol = self.volume(i, inp.time, inp.head);
         let InfluenceVolume::Cone(cone) = vol else {
@@ -1118,7 +680,7 @@ impl Salon {
         state: &mut StrandState,
         inp: &SalonInput<'_>,
         i: usize,
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         let InfluenceVolume::Cone(cone) = self.volume(i, inp.time, inp.head) else {
             return Ok(());
         };
@@ -1143,7 +705,7 @@ impl Salon {
         state: &mut StrandState,
         inp: &SalonInput<'_>,
         i: usize,
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         self.stats.snips += 1;
         let vol = self.volume(i, inp.time, inp.head);
         let InfluenceVolume::Triangle(tri) = vol else {
@@ -1345,7 +907,7 @@ impl Salon {
         &mut self,
         state: &mut StrandState,
         inp: &SalonInput<'_>,
-    ) -> Result<(), HairError> {
+    ) -> Result<(), ToolError> {
         if self.fallen.is_empty() {
             return Ok(());
         }
@@ -1391,86 +953,6 @@ impl Salon {
         }
         Ok(())
     }
-
-    /// Render geometry after cuts: every cut strand ends where its skeleton now ends, and every
-    /// fallen piece that is not swept draws the strands of the node it was cut from, at their
-    /// offsets from the original control points. Nothing to do before the first cut.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "the render inputs are distinct fields of the pipeline"
-    )]
-    pub(crate) fn render(
-        &mut self,
-        state: &StrandState,
-        h: &Hierarchy,
-        strand_node: &[u32],
-        node_local_start: &[u32],
-        strand_local: &[Vector],
-        per: usize,
-        head: &HeadMotion,
-        out: &mut RenderGeometry,
-    ) {
-        if self.stats.cuts == 0 {
-            return;
-        }
-        let sub = out.subdivisions.max(1);
-        let verts_of = |n: usize| {
-            if sub <= 1 || n < 2 {
-                n
-            } else {
-                sub * (n - 1) + 1
-            }
-        };
-        // Compact: strand s keeps the vertices of its live control points.
-        let strands = out.strand_count();
-        let mut write = 0usize;
-        for s in 0..strands.min(strand_node.len()) {
-            let start = out.offsets[s] as usize;
-            let full = out.offsets[s + 1] as usize - start;
-            let live = state.nodes(SkeletonId(strand_node[s])).len().min(per);
-            let keep = verts_of(live).min(full);
-            out.positions.copy_within(start..start + keep, write);
-            out.offsets[s] = write as u32;
-            write += keep;
-        }
-        out.offsets.truncate(strands.min(strand_node.len()) + 1);
-        if let Some(last) = out.offsets.last_mut() {
-            *last = write as u32;
-        }
-        out.positions.truncate(write);
-        // Fallen pieces.
-        let rot = head.rotation;
-        let origin = head.position;
-        for f in &self.fallen {
-            if f.swept || (f.source as usize) >= h.node_count() {
-                continue;
-            }
-            let id = SkeletonId(f.skeleton);
-            let r = state.nodes(id);
-            let p = &state.positions()[r.clone()];
-            transport_frames(p, state.root_frame(id).matrix(), &mut self.frames);
-            // Offsets of the source node's strands start here, `per` per strand.
-            let base = node_local_start
-                .get(f.source as usize)
-                .map_or(usize::MAX, |&b| b as usize);
-            for slot in 0..h.strands(f.source).len() {
-                self.control.clear();
-                for (j, pj) in p.iter().enumerate() {
-                    let k = (f.first_source as usize + j).saturating_sub(1).min(per - 1);
-                    let local = strand_local
-                        .get(base.saturating_add(slot * per + k))
-                        .copied()
-                        .unwrap_or_default();
-                    self.control
-                        .push(origin + rot * (pj.coords + self.frames[j] * local));
-                }
-                self.curve.clear();
-                catmull_rom(&self.control, sub, &mut self.curve);
-                out.positions.extend_from_slice(&self.curve);
-                out.offsets.push(out.positions.len() as u32);
-            }
-        }
-    }
 }
 
 /// Where segment `a -> b` crosses the triangle: the fraction along it, if it does.
@@ -1494,6 +976,7 @@ fn segment_triangle(a: &Point, b: &Point, t: &[Point; 3]) -> Option<Real> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{Pose, PoseKey};
 
     #[test]
     fn a_segment_through_a_triangle_crosses_it_once() {
