@@ -793,7 +793,7 @@ impl Simulation {
                 head: &env.head,
                 time: self.time + self.settings.dt,
                 dt: self.settings.dt,
-                friction: self.scene.collision.friction,
+                collision: &self.scene.collision,
             },
         )?;
         // salon (issue 8) end.

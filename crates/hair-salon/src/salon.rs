@@ -22,10 +22,8 @@
 
 use crate::script::vec3;
 use crate::{SalonError, Tool, ToolAction, ToolError, ToolEvent, ToolScript};
-use hair_dynamics::{
-    Bond, CutPoint, HeadMotion, NodeCorrection, Point, Real, SkeletonId, StrandState, Vector,
-    VelocityConstraint,
-};
+use hair_collide::{BodyConstraint, CollisionSettings};
+use hair_dynamics::{Bond, CutPoint, HeadMotion, Point, Real, SkeletonId, StrandState, Vector};
 use hair_grid::{Cone, Grid, InfluenceVolume, Section};
 use hair_lod::Hierarchy;
 use hair_ssv::MeshBody;
@@ -81,8 +79,8 @@ pub struct SalonInput<'a> {
     pub time: Real,
     /// The step (s).
     pub dt: Real,
-    /// Coulomb friction of fallen pieces against the body.
-    pub friction: Real,
+    /// How fallen pieces collide with the body (the pipeline's body constraint settings).
+    pub collision: &'a CollisionSettings,
 }
 
 /// A piece of hair a cut made: a free skeleton of its own.
@@ -145,8 +143,9 @@ pub struct Salon {
     candidates: Vec<[u32; 2]>,
     bond_count: Vec<u8>,
     points: Vec<Point>,
-    corrections: Vec<NodeCorrection>,
-    constraints: Vec<VelocityConstraint>,
+    /// The unswept fallen pieces' skeletons, and the body constraint they collide through.
+    falling: Vec<u32>,
+    fallen_collision: BodyConstraint,
     stats: SalonStats,
     last_bonds: usize,
 }
@@ -901,8 +900,9 @@ impl Salon {
         }
     }
 
-    /// Fallen pieces collide with the body (pushed out along the normal, normal velocity
-    /// removed, friction) and are swept once entirely below the floor.
+    /// Fallen pieces collide with the body through the pipeline's body constraint (a fallen
+    /// piece is a free skeleton: swept root to tip like any other) and are swept away once
+    /// entirely below the floor.
     fn collide_fallen(
         &mut self,
         state: &mut StrandState,
@@ -912,45 +912,27 @@ impl Salon {
             return Ok(());
         }
         let floor = self.script.settings.floor_height;
-        self.corrections.clear();
-        self.constraints.clear();
+        self.falling.clear();
         for f in &mut self.fallen {
             if f.swept {
                 continue;
             }
             let id = SkeletonId(f.skeleton);
             let r = state.nodes(id);
-            if state.positions()[r.clone()].iter().all(|p| p.y < floor) {
+            if state.positions()[r].iter().all(|p| p.y < floor) {
                 f.swept = true;
                 state.set_active(id, false);
                 continue;
             }
-            let Some(body) = inp.body else { continue };
-            for i in r {
-                let p = state.positions()[i];
-                if !body.near.is_near(&p) {
-                    continue;
-                }
-                let radius = state.radius()[i];
-                if let Some((d, n, _)) = body.signed_distance(&p)
-                    && d < radius
-                {
-                    self.corrections.push(NodeCorrection {
-                        node: i as u32,
-                        delta: n * (radius - d),
-                    });
-                    self.constraints.push(VelocityConstraint {
-                        node: i as u32,
-                        normal: n,
-                        friction: inp.friction,
-                    });
-                }
-            }
+            self.falling.push(f.skeleton);
         }
-        if !self.corrections.is_empty() {
-            state.apply_corrections(&self.corrections)?;
-            state.apply_velocity_constraints(&self.constraints)?;
-        }
+        let Some(body) = inp.body else {
+            return Ok(());
+        };
+        // The pieces fell after the depenetration ramp: they are resolved at once.
+        let past_ramp = u64::from(inp.collision.depenetration_steps);
+        self.fallen_collision
+            .apply(state, body, &self.falling, past_ramp, inp.collision)?;
         Ok(())
     }
 }

@@ -232,6 +232,9 @@ pub enum ToolError {
     /// The hierarchy refused a property's inheritance.
     #[error("lod: {0}")]
     Lod(#[from] hair_lod::LodError),
+    /// Fallen hair's body constraint refused a correction.
+    #[error("fallen hair: {0}")]
+    Collide(#[from] hair_collide::CollideError),
     /// A live event broke the script.
     #[error(transparent)]
     Script(#[from] SalonError),
