@@ -1,7 +1,7 @@
 //! Drivers: the head's rigid motion and the camera at time `t`.
 
-use crate::scene::{CameraSpec, HeadMotionSpec};
-use hair_dynamics::HeadMotion;
+use crate::scene::{CameraSpec, HeadMotionSpec, Scene};
+use hair_dynamics::{Environment, HeadMotion, Wind};
 use hair_ssv::{Point, Real, Vector};
 use nalgebra::{Rotation3, Unit};
 
@@ -52,4 +52,25 @@ pub fn camera(spec: &CameraSpec, t: Real) -> (Point, Point) {
         }
     }
     at(keys.len() - 1)
+}
+
+/// The environment of the step that starts at time `t`: gravity, the head's motion, the wind.
+pub fn environment(scene: &Scene, t: Real) -> Environment {
+    let w = &scene.wind;
+    Environment {
+        gravity: Vector::from(scene.dynamics.gravity),
+        head: head_motion(&scene.head_motion, t),
+        wind: Wind {
+            direction: Vector::from(w.direction),
+            speed: w.speed,
+            gust: w.gust,
+            gust_frequency: w.gust_frequency,
+            turbulence: w.turbulence,
+            turbulence_scale: w.turbulence_scale,
+            drag: w.drag,
+            seed: scene.seed,
+        },
+        fields: Vec::new(),
+        time: t,
+    }
 }

@@ -35,6 +35,7 @@ mod body;
 pub mod drivers;
 mod error;
 pub mod hairstyle;
+mod lod_stage;
 mod render_geometry;
 pub mod scene;
 mod simulation;

@@ -8,7 +8,8 @@ use hair_dynamics::{HeadMotion, SkeletonId, StrandState};
 use hair_lod::Hierarchy;
 use hair_salon::Salon;
 use hair_ssv::{Point, Real, Vector};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Rotation3};
+use rayon::prelude::*;
 
 /// Rendered strands around skeletons, with their output polylines (world frame).
 #[derive(Clone, Debug, Default)]
@@ -151,6 +152,258 @@ impl RenderGeometry {
     pub fn strand(&self, s: usize) -> &[Point] {
         &self.positions[self.offsets[s] as usize..self.offsets[s + 1] as usize]
     }
+}
+
+/// The render stage: every rendered strand follows the front node that holds it, at its
+/// offsets from that node's control points in their transport frames, drawn as a Catmull-Rom
+/// curve in world coordinates; cuts end strands and fallen pieces are drawn
+/// ([`CutRender`]). Buffers are reused: an update allocates nothing once grown.
+#[derive(Clone, Debug)]
+pub(crate) struct DrawnStrands {
+    /// The output polylines.
+    pub(crate) geometry: RenderGeometry,
+    /// Control points per strand.
+    pub(crate) per: usize,
+    /// Every strand's rest points (`per` each).
+    strand_rest: Vec<Point>,
+    /// Per strand, the front node that draws it.
+    pub(crate) strand_node: Vec<u32>,
+    /// Transport frames of the front skeletons' nodes, by global node index.
+    node_frames: Vec<Matrix3<Real>>,
+    /// The front skeletons' node ranges and ids `(start, end, node)`, ascending: the frames are
+    /// filled by splitting `node_frames` along them.
+    front_ranges: Vec<(usize, usize, u32)>,
+    /// Per node, where its strands' offsets start in `strand_local`.
+    node_local_start: Vec<u32>,
+    /// Each strand's offset from each node containing it, per control point, in that node's
+    /// rest transport frames (so the offset turns with the skeleton).
+    strand_local: Vec<Vector>,
+    /// Where the offsets of each strand from its current front node start.
+    strand_slot: Vec<u32>,
+    /// The strands grouped by front node (in the front's order), and each strand's place in
+    /// that order: the render pass reads each skeleton's nodes once for all its strands.
+    strand_order: Vec<u32>,
+    strand_rank: Vec<u32>,
+    /// The strands' curves in `strand_order`, before they are copied out in strand order.
+    render_scratch: Vec<Point>,
+    cuts: CutRender,
+}
+
+impl DrawnStrands {
+    /// The stage for strands of `per` control points at rest at `strand_rest`, drawn with
+    /// `subdivisions` points per segment.
+    pub(crate) fn new(strand_rest: Vec<Point>, per: usize, subdivisions: usize) -> Self {
+        Self {
+            geometry: RenderGeometry {
+                subdivisions,
+                ..RenderGeometry::default()
+            },
+            per,
+            strand_rest,
+            strand_node: Vec::new(),
+            node_frames: Vec::new(),
+            front_ranges: Vec::new(),
+            node_local_start: Vec::new(),
+            strand_local: Vec::new(),
+            strand_slot: Vec::new(),
+            strand_order: Vec::new(),
+            strand_rank: Vec::new(),
+            render_scratch: Vec::new(),
+            cuts: CutRender::default(),
+        }
+    }
+
+    /// Every strand's offsets from every node that contains it, then the assignment of strands
+    /// to the current front.
+    pub(crate) fn prepare(&mut self, h: &Hierarchy, state: &StrandState, front: &[u32]) {
+        let per = self.per;
+        let mut frames = Vec::new();
+        let mut rest = Vec::new();
+        self.node_local_start.clear();
+        self.strand_local.clear();
+        for node in 0..h.node_count() as u32 {
+            self.node_local_start.push(self.strand_local.len() as u32);
+            h.rest_points_into(node, &mut rest);
+            let first = state.root_frame(SkeletonId(node));
+            transport_frames(&rest, first.matrix(), &mut frames);
+            for &s in h.strands(node) {
+                let s = s as usize;
+                for k in 0..per {
+                    let k_node = k.min(rest.len() - 1);
+                    let d = self.strand_rest[s * per + k] - rest[k_node];
+                    self.strand_local.push(frames[k_node].transpose() * d);
+                }
+            }
+        }
+        self.assign(h, state, front);
+    }
+
+    /// Which front node draws each strand.
+    pub(crate) fn assign(&mut self, h: &Hierarchy, state: &StrandState, front: &[u32]) {
+        let per = self.per as u32;
+        let n_strands = h.strand_total();
+        self.strand_node.resize(n_strands, 0);
+        self.strand_slot.resize(n_strands, 0);
+        self.strand_order.clear();
+        for &node in front {
+            let start = self.node_local_start[node as usize];
+            for (j, &s) in h.strands(node).iter().enumerate() {
+                self.strand_node[s as usize] = node;
+                self.strand_slot[s as usize] = start + j as u32 * per;
+                self.strand_order.push(s);
+            }
+        }
+        // A front is a cut of the hierarchy, so it holds every strand once; should the count
+        // ever differ, the strands are drawn in their own order.
+        if self.strand_order.len() != n_strands {
+            self.strand_order.clear();
+            self.strand_order.extend(0..n_strands as u32);
+        }
+        self.strand_rank.resize(n_strands, 0);
+        for (k, &s) in self.strand_order.iter().enumerate() {
+            self.strand_rank[s as usize] = k as u32;
+        }
+        self.front_ranges.clear();
+        self.front_ranges.extend(front.iter().map(|&n| {
+            let r = state.nodes(SkeletonId(n));
+            (r.start, r.end, n)
+        }));
+        self.front_ranges.sort_unstable();
+    }
+
+    /// The first drawn strand with a point not within [`DRAWABLE`] of the origin (0 if none).
+    pub(crate) fn first_undrawable(&self) -> usize {
+        let verts = self.geometry.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
+        self.geometry
+            .positions
+            .iter()
+            .position(|p| !p.coords.iter().all(|c| c.abs() < DRAWABLE))
+            .map_or(0, |i| i / verts)
+    }
+
+    /// Rebuilds every rendered strand from its front node, in world coordinates; false when a
+    /// control point is not within [`DRAWABLE`] of the origin (non-finite included).
+    #[must_use]
+    pub(crate) fn update(
+        &mut self,
+        h: &Hierarchy,
+        state: &StrandState,
+        rot: &Rotation3<Real>,
+        origin: &Point,
+    ) -> bool {
+        let n_strands = h.strand_total();
+        let sub = self.geometry.subdivisions.max(1);
+        // Frames of every front node along its current polyline, into disjoint ranges of one
+        // buffer (no allocation once it has grown).
+        self.node_frames
+            .resize(state.node_count(), Matrix3::identity());
+        fill_frames(state, &mut self.node_frames, 0, &self.front_ranges);
+        let per = self.per;
+        let verts = sub * (per - 1) + 1;
+        self.geometry.offsets.clear();
+        self.geometry
+            .offsets
+            .extend((0..=n_strands as u32).map(|s| s * verts as u32));
+        self.geometry
+            .positions
+            .resize(n_strands * verts, Point::origin());
+        let strand_node = &self.strand_node;
+        let node_frames = &self.node_frames;
+        let local = &self.strand_local;
+        let slot = &self.strand_slot;
+        // Curves in the front's order first: consecutive strands then share their skeleton's
+        // nodes and frames, where strand order reads them from all over the state (a strand's
+        // neighbours in number almost never share its skeleton). Then copied out in strand
+        // order, one contiguous run per strand.
+        let (order, rot, origin) = (&self.strand_order, *rot, *origin);
+        self.render_scratch
+            .resize(n_strands * verts, Point::origin());
+        // Each strand's control points are checked as they are made (in registers, no branch):
+        // a curve through points within `DRAWABLE` of the origin stays finite.
+        let drawable = self
+            .render_scratch
+            .par_chunks_mut(verts)
+            .zip(order.par_iter())
+            .map(|(out, &s)| {
+                let s = s as usize;
+                let node = strand_node[s];
+                let r = state.nodes(SkeletonId(node));
+                let p = &state.positions()[r.clone()];
+                let frames = &node_frames[r.clone()];
+                let mut control = [Point::origin(); 64];
+                let count = p.len().min(per).min(64);
+                let mut ok = true;
+                for k in 0..count {
+                    control[k] =
+                        origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
+                    let c = control[k];
+                    // False for NaN too.
+                    ok &= (c.x.abs() < DRAWABLE) & (c.y.abs() < DRAWABLE) & (c.z.abs() < DRAWABLE);
+                }
+                catmull_rom_into(&control[..count], sub, out);
+                ok
+            })
+            .reduce(|| true, |a, b| a && b);
+        let (scratch, rank) = (&self.render_scratch, &self.strand_rank);
+        self.geometry
+            .positions
+            .par_chunks_mut(verts)
+            .zip(rank.par_iter())
+            .for_each(|(out, &k)| {
+                let k = k as usize * verts;
+                out.copy_from_slice(&scratch[k..k + verts]);
+            });
+        drawable
+    }
+
+    /// Cut strands end at the cut; fallen pieces are drawn (nothing before the first cut).
+    pub(crate) fn apply_cuts(
+        &mut self,
+        salon: &Salon,
+        state: &StrandState,
+        h: &Hierarchy,
+        head: &HeadMotion,
+    ) {
+        let strands = CutStrands {
+            strand_node: &self.strand_node,
+            node_local_start: &self.node_local_start,
+            strand_local: &self.strand_local,
+            per: self.per,
+        };
+        self.cuts
+            .apply(salon, state, h, &strands, head, &mut self.geometry);
+    }
+}
+
+/// Drawn control points farther than this from the origin (m) stop a step with
+/// [`crate::HairError::NonFiniteRender`]: hair there has left any scene, and the curves through such
+/// points (sums of a few multiples of them) could overflow `f32`.
+const DRAWABLE: Real = 1e36;
+
+/// The transport frames of the skeletons whose node ranges are `ranges` (ascending, disjoint,
+/// inside `base..base + frames.len()`) into `frames`, split in halves across threads.
+fn fill_frames(
+    state: &StrandState,
+    frames: &mut [Matrix3<Real>],
+    base: usize,
+    ranges: &[(usize, usize, u32)],
+) {
+    if ranges.len() <= 16 {
+        for &(start, end, node) in ranges {
+            transport_frames_into(
+                &state.positions()[start..end],
+                state.root_frame(SkeletonId(node)).matrix(),
+                &mut frames[start - base..end - base],
+            );
+        }
+        return;
+    }
+    let mid = ranges.len() / 2;
+    let (low, high) = frames.split_at_mut(ranges[mid].0 - base);
+    rayon::join(
+        || fill_frames(state, low, base, &ranges[..mid]),
+        || fill_frames(state, high, ranges[mid].0, &ranges[mid..]),
+    );
 }
 
 /// The rendered strands' offsets from their skeletons, as the render stage holds them.

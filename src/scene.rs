@@ -317,6 +317,28 @@ impl Default for DynamicsSpec {
     }
 }
 
+impl DynamicsSpec {
+    /// The integration settings of a scene at `frame_rate` frames a second and `substeps`
+    /// steps a frame.
+    pub fn step_settings(&self, frame_rate: f32, substeps: u32) -> hair_dynamics::StepSettings {
+        hair_dynamics::StepSettings {
+            dt: 1.0 / (frame_rate * substeps as f32),
+            integrator: match self.integrator {
+                IntegratorSpec::ExplicitEuler => hair_dynamics::Integrator::ExplicitEuler,
+                IntegratorSpec::SymplecticEuler => hair_dynamics::Integrator::SymplecticEuler,
+                IntegratorSpec::Rk4 => hair_dynamics::Integrator::Rk4,
+                IntegratorSpec::ImplicitAngular => hair_dynamics::Integrator::ImplicitAngular,
+                IntegratorSpec::ImplicitCoupled => hair_dynamics::Integrator::ImplicitCoupled,
+            },
+            torque: match self.torque {
+                TorqueSpec::Chain => hair_dynamics::TorqueModel::Chain,
+                TorqueSpec::Local => hair_dynamics::TorqueModel::Local,
+            },
+            solver: hair_dynamics::LinearSolver::Structured,
+        }
+    }
+}
+
 /// Integrators, by name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[allow(missing_docs)]

@@ -1,28 +1,21 @@
-//! The per-step pipeline (`../DESIGN.md`, "One simulation step"): drivers, LOD selection, grid,
-//! hair-hair (soft), dynamics, hair-object (hard), render geometry.
+//! The per-step pipeline (`docs/architecture.md`): each stage one call into the layer that
+//! owns it.
 //!
-//! The hard constraint runs after integration rather than before it, so the state handed to the
-//! renderer and to the next step is never inside the body by more than the stated tolerance.
+//! The hard body constraint runs after integration rather than before it, so the state handed
+//! to the renderer and to the next step is never inside the body by more than the stated
+//! tolerance.
 
-use crate::render_geometry::{
-    CutRender, CutStrands, RenderGeometry, catmull_rom_into, transport_frames,
-    transport_frames_into,
-};
-use crate::scene::{IntegratorSpec, LodPolicy, Scene, TorqueSpec};
+use crate::lod_stage::{self, LodStage};
+use crate::render_geometry::{DrawnStrands, RenderGeometry};
+use crate::scene::{LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
 use hair_collide::{BodyConstraint, HairPairs, Localization, Sections};
-use hair_dynamics::{
-    Environment, Integrator, LinearSolver, Material, SkeletonId, StepSettings, StrandState,
-    TorqueModel, Wind,
-};
+use hair_dynamics::{Environment, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
-use hair_lod::{
-    AdaptiveLod, BodyDepth, Hierarchy, HierarchyParams, NodeKind, OccluderMesh, TransitionReport,
-    View,
-};
-use hair_ssv::{MeshBody, Point, Real, Vector};
-use nalgebra::{Isometry3, Matrix3};
-use rayon::prelude::*;
+use hair_lod::{Hierarchy, NodeKind};
+use hair_salon::{Salon, SalonInput, SalonStats};
+use hair_ssv::{MeshBody, Point, Real};
+use nalgebra::Isometry3;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -89,95 +82,44 @@ pub struct StepStats {
 pub struct Simulation {
     scene: Scene,
     hierarchy: Hierarchy,
+    /// The hierarchy nodes simulated (sorted).
     front_nodes: Vec<u32>,
     state: StrandState,
+    /// The state as built, for [`Simulation::reset`].
+    initial: StrandState,
     body: Option<MeshBody>,
     settings: StepSettings,
     time: Real,
     steps: u64,
+    lod: LodStage,
     grid: Grid,
     /// The front's segments as grid sections.
     sections: Sections,
     localization: Localization,
     hair_pairs: HairPairs,
     body_constraint: BodyConstraint,
-    render: RenderGeometry,
-    strand_node: Vec<u32>,
-    /// Transport frames of the front skeletons' nodes, by global node index.
-    node_frames: Vec<Matrix3<Real>>,
-    /// The front skeletons' node ranges and ids `(start, end, node)`, ascending: the frames are
-    /// filled by splitting `node_frames` along them.
-    front_ranges: Vec<(usize, usize, u32)>,
+    salon: Salon,
+    /// Per skeleton, its collision radius as built (the salon's tools scale it).
     node_radius: Vec<Real>,
-    strand_rest: Vec<Point>,
-    /// Per node, where its strands' offsets start in `strand_local`.
-    node_local_start: Vec<u32>,
-    /// Each strand's offset from each node containing it, per control point, in that node's
-    /// rest transport frames (so the offset turns with the skeleton).
-    strand_local: Vec<Vector>,
-    /// Where the offsets of each strand from its current front node start.
-    strand_slot: Vec<u32>,
-    /// The strands grouped by front node (in the front's order), and each strand's place in
-    /// that order: the render pass reads each skeleton's nodes once for all its strands.
-    strand_order: Vec<u32>,
-    strand_rank: Vec<u32>,
-    /// The strands' curves in `strand_order`, before they are copied out in strand order.
-    render_scratch: Vec<Point>,
-    points_per_strand: usize,
-    adaptive: Option<AdaptiveLod>,
-    last_lod: TransitionReport,
-    /// The body's depth from the camera, for the adaptive policy's visibility (drawn again only
-    /// when the view in the head frame changes).
-    body_depth: BodyDepth,
-    initial_adaptive: Option<AdaptiveLod>,
+    drawn: DrawnStrands,
     teleport: Isometry3<Real>,
+    /// Time carried from one [`Simulation::advance`] to the next (s).
     accumulator: f64,
     previous_render: Vec<Point>,
     frame_render: RenderGeometry,
-    initial: StrandState,
-    // salon (issue 8): the tool script's state.
-    salon: hair_salon::Salon,
-    /// The drawn strands' ends after cuts, and the fallen pieces.
-    cut_render: CutRender,
 }
 
-fn integrator(spec: IntegratorSpec) -> Integrator {
-    match spec {
-        IntegratorSpec::ExplicitEuler => Integrator::ExplicitEuler,
-        IntegratorSpec::SymplecticEuler => Integrator::SymplecticEuler,
-        IntegratorSpec::Rk4 => Integrator::Rk4,
-        IntegratorSpec::ImplicitAngular => Integrator::ImplicitAngular,
-        IntegratorSpec::ImplicitCoupled => Integrator::ImplicitCoupled,
-    }
-}
+/// Times the stages of a step.
+struct StageClock(Instant);
 
-/// The nodes a fixed policy simulates: for each finest node, its highest ancestor of `kind`
-/// (or itself where the tree has none).
-fn fixed_front(h: &Hierarchy, policy: LodPolicy) -> Vec<u32> {
-    let mut out: Vec<u32> = Vec::new();
-    for node in 0..h.node_count() as u32 {
-        if !h.is_leaf(node) {
-            continue;
-        }
-        let mut pick = node;
-        let mut cur = node;
-        while let Some(p) = h.parent(cur) {
-            let take = match policy {
-                LodPolicy::Fine | LodPolicy::Adaptive => false,
-                LodPolicy::CoarseStrands => h.kind(p) == NodeKind::StrandGroup,
-                LodPolicy::Clusters => h.kind(p) == NodeKind::Cluster,
-                LodPolicy::Strips => true,
-            };
-            if take {
-                pick = p;
-            }
-            cur = p;
-        }
-        out.push(pick);
+impl StageClock {
+    /// Milliseconds since the last lap (or the start).
+    fn lap(&mut self) -> f64 {
+        let now = Instant::now();
+        let ms = (now - self.0).as_secs_f64() * 1e3;
+        self.0 = now;
+        ms
     }
-    out.sort_unstable();
-    out.dedup();
-    out
 }
 
 impl Simulation {
@@ -186,74 +128,36 @@ impl Simulation {
         let scene = loaded.scene.clone();
         let body = crate::body::from_spec(&scene.body, &loaded.base_dir)?;
         let style = hairstyle::from_spec(&scene.hairstyle, scene.seed, &loaded.base_dir)?;
-        let params = hierarchy_params(&scene);
-        let hierarchy = Hierarchy::build(&style, &params).map_err(|e| HairError::SceneValue {
+        let bad_style = |message: String| HairError::SceneValue {
             file: loaded.source.clone(),
             field: "hairstyle".into(),
-            message: e.to_string(),
-        })?;
-        let d = &scene.dynamics;
-        let mut state = StrandState::new();
-        let mut node_radius = Vec::with_capacity(hierarchy.node_count());
-        for node in 0..hierarchy.node_count() as u32 {
-            let material = Material {
-                linear_density: d.linear_density,
-                bending_stiffness: d.bending_stiffness,
-                tip_stiffness_ratio: d.tip_stiffness_ratio,
-                damping: d.damping,
-                tip_damping_ratio: d.tip_damping_ratio,
-                radius: d.radius,
-                stretch_stiffness: 0.0,
-            };
-            let id = state.add_skeleton(&hierarchy.skeleton_desc(node, material))?;
-            debug_assert_eq!(id.0, node);
-            let r = match hierarchy.kind(node) {
-                NodeKind::StrandGroup => hierarchy.size(node).max(d.radius),
-                _ => (0.5 * hierarchy.size(node)).max(d.radius),
-            };
-            node_radius.push(r);
-            for i in state.nodes(id) {
-                state.radius_mut()[i] = r;
-            }
-        }
-        let front_nodes = fixed_front(&hierarchy, policy);
-        let points_per_strand = style.strands[0].points.len();
-        if let Some(bad) = style
-            .strands
-            .iter()
-            .position(|st| st.points.len() != points_per_strand)
-        {
-            return Err(HairError::SceneValue {
-                file: loaded.source.clone(),
-                field: "hairstyle".into(),
-                message: format!(
-                    "strand {bad} has {} points; every strand needs {points_per_strand}",
-                    style.strands[bad].points.len()
-                ),
-            });
-        }
-        let strand_rest: Vec<Point> = style
-            .strands
-            .iter()
-            .flat_map(|st| st.points.iter().copied())
-            .collect();
-        let mut active = vec![false; hierarchy.node_count()];
-        for &n in &front_nodes {
-            active[n as usize] = true;
-        }
-        for s in 0..hierarchy.node_count() {
-            state.set_active(SkeletonId(s as u32), active[s]);
-        }
-        let dt = 1.0 / (scene.frame_rate * scene.substeps as Real);
-        let settings = StepSettings {
-            dt,
-            integrator: integrator(d.integrator),
-            torque: match d.torque {
-                TorqueSpec::Chain => TorqueModel::Chain,
-                TorqueSpec::Local => TorqueModel::Local,
-            },
-            solver: LinearSolver::Structured,
+            message,
         };
+        let hierarchy = Hierarchy::build(&style, &scene.hierarchy.params())
+            .map_err(|e| bad_style(e.to_string()))?;
+        let per = style.strands[0].points.len();
+        if let Some(bad) = style.strands.iter().position(|st| st.points.len() != per) {
+            let n = style.strands[bad].points.len();
+            return Err(bad_style(format!(
+                "strand {bad} has {n} points; every strand needs {per}"
+            )));
+        }
+        let (mut state, node_radius) = skeletons(&scene, &hierarchy)?;
+        let front_nodes = lod_stage::fixed_front(&hierarchy, policy);
+        for s in 0..hierarchy.node_count() as u32 {
+            state.set_active(SkeletonId(s), front_nodes.binary_search(&s).is_ok());
+        }
+        let strand_rest = style
+            .strands
+            .iter()
+            .flat_map(|st| st.points.iter().copied());
+        let mut drawn = DrawnStrands::new(strand_rest.collect(), per, 3);
+        drawn.prepare(&hierarchy, &state, &front_nodes);
+        let salon = Salon::new(&scene.tools, &state, &hierarchy, &node_radius);
+        let lod = LodStage::new(policy, &scene, &hierarchy, &mut state)?;
+        let settings = scene
+            .dynamics
+            .step_settings(scene.frame_rate, scene.substeps);
         let mut sim = Self {
             initial: state.clone(),
             scene,
@@ -264,76 +168,24 @@ impl Simulation {
             settings,
             time: 0.0,
             steps: 0,
+            lod,
             grid: Grid::new(GridConfig::default()),
             sections: Sections::default(),
             localization: Localization::default(),
             hair_pairs: HairPairs::new(),
             body_constraint: BodyConstraint::new(),
-            render: RenderGeometry {
-                subdivisions: 3,
-                ..RenderGeometry::default()
-            },
-            strand_node: Vec::new(),
-            node_frames: Vec::new(),
-            front_ranges: Vec::new(),
+            salon,
             node_radius,
-            strand_rest,
-            node_local_start: Vec::new(),
-            strand_local: Vec::new(),
-            strand_slot: Vec::new(),
-            strand_order: Vec::new(),
-            strand_rank: Vec::new(),
-            render_scratch: Vec::new(),
-            adaptive: None,
-            last_lod: TransitionReport::default(),
-            body_depth: BodyDepth::new(),
-            initial_adaptive: None,
+            drawn,
             teleport: Isometry3::identity(),
             accumulator: 0.0,
             previous_render: Vec::new(),
             frame_render: RenderGeometry::default(),
-            points_per_strand,
-            salon: hair_salon::Salon::default(),
-            cut_render: CutRender::default(),
         };
-        // salon (issue 8): tools over the initial state.
-        sim.salon = hair_salon::Salon::new(
-            &sim.scene.tools,
-            &sim.state,
-            &sim.hierarchy,
-            &sim.node_radius,
-        );
-        sim.prepare_render();
-        if policy == LodPolicy::Adaptive {
-            let mut lod = AdaptiveLod::new(&sim.hierarchy, &sim.scene.adaptive);
-            for n in 0..sim.hierarchy.node_count() as u32 {
-                sim.state
-                    .set_active(SkeletonId(n), lod.front().is_active(n));
-            }
-            // Settle the starting front: one level per selection, from the root strips down.
-            // Without the body's occlusion: hair hidden at rest coarsens only after
-            // `HIDDEN_AFTER` steps of wind. Settled with it and counted hidden at once (tried on
-            // 5eea007: this view given the body's depth image and the hidden count, then dropped),
-            // `wardlin`'s front started at 2,524 skeletons and averaged 2,596 over 60 frames
-            // against 2,919, but the visible RMS distance from `fine` (`hair study wardlin`)
-            // went from 1.94 to 3.76 mm: hair hidden at rest that the wind brings into view came
-            // back from its root strip.
-            let view = sim.view(0.0);
-            for _ in 0..=sim.hierarchy.max_level() {
-                if !lod.update(&sim.hierarchy, &mut sim.state, &view, &[])? {
-                    break;
-                }
-            }
-            sim.initial_adaptive = Some(lod.clone());
-            sim.adaptive = Some(lod);
-            sim.refresh_front();
-        }
-        sim.initial = sim.state.clone();
-        if !sim.update_render_geometry() {
-            return Err(HairError::NonFiniteRender {
-                step: 0,
-                strand: sim.first_undrawable_strand(),
-            });
+        sim.refresh_front();
+        if !sim.draw() {
+            let strand = sim.drawn.first_undrawable();
+            return Err(HairError::NonFiniteRender { step: 0, strand });
         }
         Ok(sim)
     }
@@ -442,7 +294,7 @@ impl Simulation {
 
     /// The rendered strands (world frame) as of the last step.
     pub fn render_geometry(&self) -> &RenderGeometry {
-        &self.render
+        &self.drawn.geometry
     }
 
     /// The fixed simulation step (s).
@@ -461,7 +313,7 @@ impl Simulation {
     pub fn teleport(&mut self, offset: Isometry3<Real>) {
         self.teleport = offset * self.teleport;
         // An offset too large to draw is reported by the next step.
-        let _finite = self.update_render_geometry();
+        let _finite = self.draw();
     }
 
     /// The accumulated teleport offset (world from the scene's head path).
@@ -492,24 +344,28 @@ impl Simulation {
         let mut steps = 0;
         // A frame that is a whole number of steps up to rounding takes them all.
         while self.accumulator >= dt * (1.0 - 1e-6) {
-            self.previous_render.clone_from(&self.render.positions);
+            self.previous_render
+                .clone_from(&self.drawn.geometry.positions);
             stats.push(self.step()?);
             self.accumulator -= dt;
             steps += 1;
         }
-        if self.previous_render.len() != self.render.positions.len() {
-            self.previous_render.clone_from(&self.render.positions);
+        if self.previous_render.len() != self.drawn.geometry.positions.len() {
+            self.previous_render
+                .clone_from(&self.drawn.geometry.positions);
         }
         self.accumulator = self.accumulator.max(0.0);
         let alpha = (self.accumulator / dt).clamp(0.0, 1.0) as Real;
-        self.frame_render.subdivisions = self.render.subdivisions;
-        self.frame_render.offsets.clone_from(&self.render.offsets);
+        self.frame_render.subdivisions = self.drawn.geometry.subdivisions;
+        self.frame_render
+            .offsets
+            .clone_from(&self.drawn.geometry.offsets);
         self.frame_render.positions.clear();
         // The frame lies `alpha` of a step past the last step: blend from the step before.
         self.frame_render.positions.extend(
             self.previous_render
                 .iter()
-                .zip(&self.render.positions)
+                .zip(&self.drawn.geometry.positions)
                 .map(|(a, b)| a + (b - a) * alpha),
         );
         Ok(steps)
@@ -517,15 +373,15 @@ impl Simulation {
 
     /// Which of `points` (world coordinates, as [`Simulation::render_geometry`] gives them) the
     /// camera sees now, by the test the `adaptive` policy selects with: inside the view cone
-    /// and not behind the body ([`BodyDepth`]). Written to `out`, one flag per point.
+    /// and not behind the body ([`hair_lod::BodyDepth`]). Written to `out`, one flag per point.
     /// As for that policy, the camera keeps its place relative to the scene's head path, so a
     /// teleport carries what it sees along with the head.
     pub fn seen_by_camera(&self, points: &[Point], out: &mut Vec<bool>) {
-        let mut view = self.view(self.time);
+        let mut view = lod_stage::view(&self.scene, self.time);
         // The step's image when it holds this view (`build` then keeps it), else a new one.
-        let mut depth = self.body_depth.clone();
+        let mut depth = self.lod.body_depth.clone();
         if let Some(body) = &self.body {
-            depth.build(occluder(body), &view);
+            depth.build(lod_stage::occluder(body), &view);
             view.occluder = Some(&depth);
         }
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
@@ -544,7 +400,7 @@ impl Simulation {
     /// the two steps around it (the last one's geometry before any `advance`).
     pub fn frame_geometry(&self) -> &RenderGeometry {
         if self.frame_render.positions.is_empty() {
-            &self.render
+            &self.drawn.geometry
         } else {
             &self.frame_render
         }
@@ -553,7 +409,6 @@ impl Simulation {
     /// Puts every strand back at rest and the clock at zero. The state is copied into the
     /// buffers already held, so the steps after a reset take no new memory.
     pub fn reset(&mut self) {
-        // Copied into the buffers held, which keep the room they grew to.
         self.state.clone_from(&self.initial);
         self.time = 0.0;
         self.steps = 0;
@@ -561,115 +416,28 @@ impl Simulation {
         self.localization.clear();
         self.accumulator = 0.0;
         self.frame_render.positions.clear();
-        if let Some(lod) = &self.initial_adaptive {
-            match &mut self.adaptive {
-                Some(current) => current.reset_to(lod),
-                None => self.adaptive = Some(lod.clone()),
-            }
+        if self.lod.reset() {
             self.refresh_front();
         }
-        // salon (issue 8): back to the start of the script.
         self.salon
             .reset(&self.state, &self.hierarchy, &self.node_radius);
         // The initial state, drawn when the simulation was built.
-        let _finite = self.update_render_geometry();
+        let _finite = self.draw();
     }
 
-    /// Every strand's offsets from every node that contains it, then the assignment of strands
-    /// to the current front.
-    fn prepare_render(&mut self) {
-        let h = &self.hierarchy;
-        let per = self.points_per_strand;
-        let mut frames = Vec::new();
-        let mut rest = Vec::new();
-        self.node_local_start.clear();
-        self.strand_local.clear();
-        for node in 0..h.node_count() as u32 {
-            self.node_local_start.push(self.strand_local.len() as u32);
-            h.rest_points_into(node, &mut rest);
-            let first = self.initial.root_frame(SkeletonId(node));
-            transport_frames(&rest, first.matrix(), &mut frames);
-            for &s in h.strands(node) {
-                let s = s as usize;
-                for k in 0..per {
-                    let k_node = k.min(rest.len() - 1);
-                    let d = self.strand_rest[s * per + k] - rest[k_node];
-                    self.strand_local.push(frames[k_node].transpose() * d);
-                }
-            }
-        }
-        self.assign_strands();
-    }
-
-    /// Which front node draws each strand.
-    fn assign_strands(&mut self) {
-        let h = &self.hierarchy;
-        let per = self.points_per_strand as u32;
-        let n_strands = h.strand_total();
-        self.strand_node.resize(n_strands, 0);
-        self.strand_slot.resize(n_strands, 0);
-        self.strand_order.clear();
-        for &node in &self.front_nodes {
-            let start = self.node_local_start[node as usize];
-            for (j, &s) in h.strands(node).iter().enumerate() {
-                self.strand_node[s as usize] = node;
-                self.strand_slot[s as usize] = start + j as u32 * per;
-                self.strand_order.push(s);
-            }
-        }
-        // A front is a cut of the hierarchy, so it holds every strand once; should the count
-        // ever differ, the strands are drawn in their own order.
-        if self.strand_order.len() != n_strands {
-            self.strand_order.clear();
-            self.strand_order.extend(0..n_strands as u32);
-        }
-        self.strand_rank.resize(n_strands, 0);
-        for (k, &s) in self.strand_order.iter().enumerate() {
-            self.strand_rank[s as usize] = k as u32;
-        }
-        self.front_ranges.clear();
-        let state = &self.state;
-        self.front_ranges.extend(self.front_nodes.iter().map(|&n| {
-            let r = state.nodes(SkeletonId(n));
-            (r.start, r.end, n)
-        }));
-        self.front_ranges.sort_unstable();
-    }
-
-    /// The active front of the adaptive policy as a sorted node list, and the strands' owners.
+    /// The adaptive policy's front as the sorted node list, and the strands' owners.
     fn refresh_front(&mut self) {
+        if !self.lod.is_adaptive() {
+            return;
+        }
         // Other skeletons, other sections: the kept pairs no longer describe the hair.
         self.hair_pairs.forget();
-        if let Some(lod) = &self.adaptive {
-            self.front_nodes.clear();
-            self.front_nodes.extend(
-                (0..self.hierarchy.node_count() as u32).filter(|&n| lod.front().is_active(n)),
-            );
-            self.assign_strands();
-        }
+        self.lod.front_into(&self.hierarchy, &mut self.front_nodes);
+        self.drawn
+            .assign(&self.hierarchy, &self.state, &self.front_nodes);
     }
 
-    /// The camera's view cone at time `t` in the head frame, with no occluder yet.
-    fn view(&self, t: Real) -> View<'static> {
-        let head = drivers::head_motion(&self.scene.head_motion, t);
-        let (eye, target) = drivers::camera(&self.scene.camera, t);
-        let to_head = |p: Point| Point::from(head.rotation.inverse() * (p - head.position));
-        let (eye, target) = (to_head(eye), to_head(target));
-        let forward = (target - eye)
-            .try_normalize(1e-9)
-            .unwrap_or_else(|| -Vector::z());
-        // The cone around the whole image at a 3:2 aspect ratio, with a little margin.
-        let tan_v = (0.5 * self.scene.camera.fov_degrees.to_radians()).tan();
-        let half = (tan_v * (1.0 + 1.5f32 * 1.5).sqrt()).atan() * 1.1;
-        View {
-            eye,
-            forward,
-            cos_half_angle: half.min(std::f32::consts::FRAC_PI_2).cos(),
-            occluder: None,
-        }
-    }
-
-    /// Simulates one fixed step.
+    /// Simulates one fixed step: the stages in the order they run.
     ///
     /// A step takes no memory once its buffers have grown to what the scene needs (a test
     /// replays each built-in scene after [`Simulation::reset`] and counts every allocation).
@@ -677,180 +445,144 @@ impl Simulation {
     /// `hair run` does); called from any other thread, rayon's queue of outside jobs takes a
     /// small block now and then.
     pub fn step(&mut self) -> Result<StepStats, HairError> {
-        let t0 = Instant::now();
+        let (start, mut clock) = (Instant::now(), StageClock(Instant::now()));
         let mut stats = StepStats {
             step: self.steps,
             ..StepStats::default()
         };
-
-        // 1. Drivers.
-        let head = drivers::head_motion(&self.scene.head_motion, self.time);
-        let w = &self.scene.wind;
-        let env = Environment {
-            gravity: Vector::from(self.scene.dynamics.gravity),
-            head,
-            wind: Wind {
-                direction: Vector::from(w.direction),
-                speed: w.speed,
-                gust: w.gust,
-                gust_frequency: w.gust_frequency,
-                turbulence: w.turbulence,
-                turbulence_scale: w.turbulence_scale,
-                drag: w.drag,
-                seed: self.scene.seed,
-            },
-            fields: Vec::new(),
-            time: self.time,
-        };
-        let t1 = Instant::now();
-        stats.ms_drivers = ms(t0, t1);
-
-        // 2. LOD: fixed fronts change nothing; the adaptive one is re-selected.
-        if let Some(mut lod) = self.adaptive.take() {
-            let mut view = self.view(self.time);
-            if let (Some(body), true) = (&self.body, self.scene.adaptive.cull_hidden) {
-                self.body_depth.build(occluder(body), &view);
-                view.occluder = Some(&self.body_depth);
-            }
-            let result = lod.update(
-                &self.hierarchy,
-                &mut self.state,
-                &view,
-                self.localization.frozen(),
-            );
-            self.last_lod = lod.last_report();
-            self.adaptive = Some(lod);
-            if result? {
-                self.refresh_front();
-            }
-        }
-        let t2 = Instant::now();
-        stats.ms_lod = ms(t1, t2);
-        if let Some(lod) = &self.adaptive {
-            stats.lod_splits = self.last_lod.splits;
-            stats.lod_merges = self.last_lod.merges;
-            stats.lod_hidden_trees = lod.hidden_trees(&self.hierarchy);
-        }
-
-        // 3. Grid over the front's segments (head frame, where the body is static). The pairs
-        // of the last search are tested again while they are young enough and the hair is the
-        // same hair: no tool script (a cut, a bond) and the same front.
-        self.sections.build(&self.state, &self.front_nodes);
-        let collision = &self.scene.collision;
-        let search = self
+        let env = drivers::environment(&self.scene, self.time);
+        stats.ms_drivers = clock.lap();
+        self.select_lod(&mut stats)?;
+        stats.ms_lod = clock.lap();
+        self.build_grid()?;
+        stats.ms_grid = clock.lap();
+        let (state, collision) = (&mut self.state, &self.scene.collision);
+        let pairs = self
             .hair_pairs
-            .plan(collision, self.salon.script().events.is_empty());
-        // Between searches nothing else reads the grid unless localization measures activity
-        // (the salon's tools would, but a tool script always searches).
-        if search || self.scene.localization {
-            self.grid.rebuild(&self.sections.sections)?;
-        }
-        if self.scene.localization {
-            self.localization.update(
-                &mut self.state,
-                &self.grid,
-                &self.sections,
-                &self.front_nodes,
-                self.settings.dt,
-                self.salon.volumes(),
-            )?;
-        }
-        let t3 = Instant::now();
-        stats.ms_grid = ms(t2, t3);
-
-        // 4. Hair-hair (soft).
-        let report = self.hair_pairs.respond(
-            &mut self.state,
-            &self.grid,
-            &self.sections,
-            &self.scene.collision,
-        )?;
-        stats.pairs_tested = report.pairs_tested;
-        stats.hair_contacts = report.contacts;
-        let t4 = Instant::now();
-        stats.ms_hair_hair = ms(t3, t4);
-
-        // 5. Dynamics.
-        let report = self.state.step(&env, &self.settings)?;
-        let front_active = self
-            .front_nodes
-            .iter()
-            .filter(|&&n| self.state.is_active(SkeletonId(n)))
-            .count();
-        stats.skeletons = self.front_nodes.len();
-        stats.active = front_active;
-        stats.dormant = self.front_nodes.len() - front_active;
-        stats.dense_fallbacks = report.dense_fallbacks;
-        // salon (issue 8): the tool script's events and the pressed tools, after the dynamics.
-        stats.salon = self.salon.step(
-            &mut self.state,
-            &hair_salon::SalonInput {
-                hierarchy: &self.hierarchy,
-                front: &self.front_nodes,
-                grid: &self.grid,
-                sections: &self.sections.sections,
-                body: self.body.as_ref(),
-                head: &env.head,
-                time: self.time + self.settings.dt,
-                dt: self.settings.dt,
-                collision: &self.scene.collision,
-            },
-        )?;
-        // salon (issue 8) end.
-        let t5 = Instant::now();
-        stats.ms_dynamics = ms(t4, t5);
-
-        // 6. Hair-object (hard).
+            .respond(state, &self.grid, &self.sections, collision)?;
+        (stats.pairs_tested, stats.hair_contacts) = (pairs.pairs_tested, pairs.contacts);
+        stats.ms_hair_hair = clock.lap();
+        stats.dense_fallbacks = self.state.step(&env, &self.settings)?.dense_fallbacks;
+        self.count_active(&mut stats);
+        stats.ms_dynamics = clock.lap();
+        stats.salon = self.salon_stage(&env)?;
+        stats.salon.ms_salon = clock.lap();
         if let Some(body) = &self.body {
-            let report = self.body_constraint.apply(
-                &mut self.state,
-                body,
-                &self.front_nodes,
-                self.steps,
-                &self.scene.collision,
-            )?;
+            let (front, step) = (&self.front_nodes, self.steps);
+            let collision = &self.scene.collision;
+            let report =
+                self.body_constraint
+                    .apply(&mut self.state, body, front, step, collision)?;
             stats.body_contacts = report.contacts;
             stats.max_penetration_m = f64::from(report.max_penetration);
         }
-        let t6 = Instant::now();
-        stats.ms_hair_object = ms(t5, t6);
-
+        stats.ms_hair_object = clock.lap();
         self.time += self.settings.dt;
         self.steps += 1;
         if self.scene.localization {
             self.localization.record_positions(&self.state);
         }
-
-        // 7. Render geometry. A finite state can still be too far out to draw (hair thrown
-        // 1e26 m by a huge gravity): that is an error, not non-finite points handed on.
-        if !self.update_render_geometry() {
-            return Err(HairError::NonFiniteRender {
-                step: stats.step,
-                strand: self.first_undrawable_strand(),
-            });
-        }
-        // salon (issue 8): cut strands end at the cut; fallen pieces are drawn.
-        self.cut_render.apply(
-            &self.salon,
-            &self.state,
-            &self.hierarchy,
-            &CutStrands {
-                strand_node: &self.strand_node,
-                node_local_start: &self.node_local_start,
-                strand_local: &self.strand_local,
-                per: self.points_per_strand,
-            },
-            &drivers::head_motion(&self.scene.head_motion, self.time),
-            &mut self.render,
-        );
-        let t7 = Instant::now();
-        stats.ms_render_geometry = ms(t6, t7);
-        stats.render_vertices = self.render.vertex_count();
+        self.draw_step(stats.step)?;
+        stats.ms_render_geometry = clock.lap();
+        stats.render_vertices = self.drawn.geometry.vertex_count();
         stats.time = f64::from(self.time);
         stats.kinetic_energy = self.kinetic_energy();
         stats.state_hash = self.state_hash();
-        stats.ms_total = ms(t0, Instant::now());
+        stats.ms_total = (Instant::now() - start).as_secs_f64() * 1e3;
         Ok(stats)
+    }
+
+    /// The LOD stage: a fixed front changes nothing; the adaptive one is re-selected.
+    fn select_lod(&mut self, stats: &mut StepStats) -> Result<(), HairError> {
+        let report = self.lod.select(
+            &self.scene,
+            self.body.as_ref(),
+            &self.hierarchy,
+            &mut self.state,
+            self.time,
+            self.localization.frozen(),
+        )?;
+        if report.changed {
+            self.refresh_front();
+        }
+        stats.lod_splits = report.splits;
+        stats.lod_merges = report.merges;
+        stats.lod_hidden_trees = report.hidden_trees;
+        Ok(())
+    }
+
+    /// The grid stage over the front's segments (head frame, where the body is static): the
+    /// pair grid when the hair-hair model searches this step or localization measures
+    /// activity, then localization.
+    fn build_grid(&mut self) -> Result<(), HairError> {
+        self.sections.build(&self.state, &self.front_nodes);
+        // The pairs of the last search are tested again while young enough and the hair is the
+        // same hair: the same front (a new one drops them) and no tool script (a cut, a bond).
+        let reuse_allowed = self.salon.script().events.is_empty();
+        let search = self.hair_pairs.plan(&self.scene.collision, reuse_allowed);
+        if search || self.scene.localization {
+            self.grid.rebuild(&self.sections.sections)?;
+        }
+        if self.scene.localization {
+            let (state, tools) = (&mut self.state, self.salon.volumes());
+            let (grid, sections, front) = (&self.grid, &self.sections, &self.front_nodes);
+            let dt = self.settings.dt;
+            self.localization
+                .update(state, grid, sections, front, dt, tools)?;
+        }
+        Ok(())
+    }
+
+    /// Counts the front's skeletons, integrated and dormant.
+    fn count_active(&self, stats: &mut StepStats) {
+        let state = &self.state;
+        let active = self.front_nodes.iter();
+        let active = active.filter(|&&n| state.is_active(SkeletonId(n))).count();
+        stats.skeletons = self.front_nodes.len();
+        stats.active = active;
+        stats.dormant = self.front_nodes.len() - active;
+    }
+
+    /// The salon stage: the tool script's events due and the pressed tools.
+    fn salon_stage(&mut self, env: &Environment) -> Result<SalonStats, HairError> {
+        let input = SalonInput {
+            hierarchy: &self.hierarchy,
+            front: &self.front_nodes,
+            grid: &self.grid,
+            sections: &self.sections.sections,
+            body: self.body.as_ref(),
+            head: &env.head,
+            time: self.time + self.settings.dt,
+            dt: self.settings.dt,
+            collision: &self.scene.collision,
+        };
+        Ok(self.salon.step(&mut self.state, &input)?)
+    }
+
+    /// The render stage at the end of step `step`: every strand drawn, then the salon's cuts.
+    /// A finite state can still be too far out to draw (hair thrown 1e26 m by a huge
+    /// gravity): that is an error, not non-finite points handed on.
+    fn draw_step(&mut self, step: u64) -> Result<(), HairError> {
+        if !self.draw() {
+            let strand = self.drawn.first_undrawable();
+            return Err(HairError::NonFiniteRender { step, strand });
+        }
+        let head = drivers::head_motion(&self.scene.head_motion, self.time);
+        self.drawn
+            .apply_cuts(&self.salon, &self.state, &self.hierarchy, &head);
+        Ok(())
+    }
+
+    /// Draws every strand from its front node in world coordinates; false when a control point
+    /// is not within drawing range of the origin (non-finite included).
+    #[must_use]
+    fn draw(&mut self) -> bool {
+        let head = drivers::head_motion(&self.scene.head_motion, self.time);
+        // The teleport offset moves the drawn hair with the head, never the dynamics.
+        let rot = self.teleport.rotation.to_rotation_matrix() * head.rotation;
+        let origin = self.teleport * head.position;
+        self.drawn
+            .update(&self.hierarchy, &self.state, &rot, &origin)
     }
 
     /// Kinetic energy of the front's nodes (J, head frame).
@@ -895,144 +627,41 @@ impl Simulation {
         let h = mix(mix(angles, points), s.node_count() as u64);
         h ^ (h >> 31)
     }
-
-    /// The first drawn strand with a point not within [`DRAWABLE`] of the origin (0 if none).
-    fn first_undrawable_strand(&self) -> usize {
-        let verts = self.render.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
-        self.render
-            .positions
-            .iter()
-            .position(|p| !p.coords.iter().all(|c| c.abs() < DRAWABLE))
-            .map_or(0, |i| i / verts)
-    }
-
-    /// Rebuilds every rendered strand from its front node, in world coordinates; false when a
-    /// control point is not within [`DRAWABLE`] of the origin (non-finite included).
-    #[must_use]
-    fn update_render_geometry(&mut self) -> bool {
-        let h = &self.hierarchy;
-        let head = drivers::head_motion(&self.scene.head_motion, self.time);
-        let n_strands = h.strand_total();
-        let sub = self.render.subdivisions.max(1);
-        // Frames of every front node along its current polyline, into disjoint ranges of one
-        // buffer (no allocation once it has grown).
-        self.node_frames
-            .resize(self.state.node_count(), Matrix3::identity());
-        let state = &self.state;
-        fill_frames(state, &mut self.node_frames, 0, &self.front_ranges);
-        let per = self.points_per_strand;
-        let verts = sub * (per - 1) + 1;
-        self.render.offsets.clear();
-        self.render
-            .offsets
-            .extend((0..=n_strands as u32).map(|s| s * verts as u32));
-        self.render
-            .positions
-            .resize(n_strands * verts, Point::origin());
-        let strand_node = &self.strand_node;
-        let node_frames = &self.node_frames;
-        let local = &self.strand_local;
-        let slot = &self.strand_slot;
-        // The teleport offset moves the drawn hair with the head, never the dynamics.
-        let rot = self.teleport.rotation.to_rotation_matrix() * head.rotation;
-        let origin = self.teleport * head.position;
-        // Curves in the front's order first: consecutive strands then share their skeleton's
-        // nodes and frames, where strand order reads them from all over the state (a strand's
-        // neighbours in number almost never share its skeleton). Then copied out in strand
-        // order, one contiguous run per strand.
-        let order = &self.strand_order;
-        self.render_scratch
-            .resize(n_strands * verts, Point::origin());
-        // Each strand's control points are checked as they are made (in registers, no branch):
-        // a curve through points within `DRAWABLE` of the origin stays finite.
-        let drawable = self
-            .render_scratch
-            .par_chunks_mut(verts)
-            .zip(order.par_iter())
-            .map(|(out, &s)| {
-                let s = s as usize;
-                let node = strand_node[s];
-                let r = state.nodes(SkeletonId(node));
-                let p = &state.positions()[r.clone()];
-                let frames = &node_frames[r.clone()];
-                let mut control = [Point::origin(); 64];
-                let count = p.len().min(per).min(64);
-                let mut ok = true;
-                for k in 0..count {
-                    control[k] =
-                        origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
-                    let c = control[k];
-                    // False for NaN too.
-                    ok &= (c.x.abs() < DRAWABLE) & (c.y.abs() < DRAWABLE) & (c.z.abs() < DRAWABLE);
-                }
-                catmull_rom_into(&control[..count], sub, out);
-                ok
-            })
-            .reduce(|| true, |a, b| a && b);
-        let (scratch, rank) = (&self.render_scratch, &self.strand_rank);
-        self.render
-            .positions
-            .par_chunks_mut(verts)
-            .zip(rank.par_iter())
-            .for_each(|(out, &k)| {
-                let k = k as usize * verts;
-                out.copy_from_slice(&scratch[k..k + verts]);
-            });
-        drawable
-    }
 }
 
-/// Drawn control points farther than this from the origin (m) stop a step with
-/// [`HairError::NonFiniteRender`]: hair there has left any scene, and the curves through such
-/// points (sums of a few multiples of them) could overflow `f32`.
-const DRAWABLE: Real = 1e36;
-
-/// The transport frames of the skeletons whose node ranges are `ranges` (ascending, disjoint,
-/// inside `base..base + frames.len()`) into `frames`, split in halves across threads.
-fn fill_frames(
-    state: &StrandState,
-    frames: &mut [Matrix3<Real>],
-    base: usize,
-    ranges: &[(usize, usize, u32)],
-) {
-    if ranges.len() <= 16 {
-        for &(start, end, node) in ranges {
-            transport_frames_into(
-                &state.positions()[start..end],
-                state.root_frame(SkeletonId(node)).matrix(),
-                &mut frames[start - base..end - base],
-            );
+/// Every hierarchy node as a skeleton of a new state, with the scene's material and its
+/// collision radius (a strand group's size, half a strip's or cluster's width, at least the
+/// scene's radius); returns the state and each skeleton's radius.
+fn skeletons(scene: &Scene, h: &Hierarchy) -> Result<(StrandState, Vec<Real>), HairError> {
+    let d = &scene.dynamics;
+    let mut state = StrandState::new();
+    let mut node_radius = Vec::with_capacity(h.node_count());
+    for node in 0..h.node_count() as u32 {
+        let material = Material {
+            linear_density: d.linear_density,
+            bending_stiffness: d.bending_stiffness,
+            tip_stiffness_ratio: d.tip_stiffness_ratio,
+            damping: d.damping,
+            tip_damping_ratio: d.tip_damping_ratio,
+            radius: d.radius,
+            stretch_stiffness: 0.0,
+        };
+        let id = state.add_skeleton(&h.skeleton_desc(node, material))?;
+        debug_assert_eq!(id.0, node);
+        let r = match h.kind(node) {
+            NodeKind::StrandGroup => h.size(node).max(d.radius),
+            _ => (0.5 * h.size(node)).max(d.radius),
+        };
+        node_radius.push(r);
+        for i in state.nodes(id) {
+            state.radius_mut()[i] = r;
         }
-        return;
     }
-    let mid = ranges.len() / 2;
-    let (low, high) = frames.split_at_mut(ranges[mid].0 - base);
-    rayon::join(
-        || fill_frames(state, low, base, &ranges[..mid]),
-        || fill_frames(state, high, ranges[mid].0, &ranges[mid..]),
-    );
+    Ok((state, node_radius))
 }
 
 /// How deep inside the body [`Simulation::prefill_body_field`] computes samples (m).
 pub const PREFILL_INSIDE: Real = 0.01;
-
-/// The body as the adaptive policy's depth image draws it.
-fn occluder(body: &MeshBody) -> OccluderMesh<'_> {
-    OccluderMesh {
-        vertices: &body.vertices,
-        triangles: &body.triangles,
-        closed: body.closed,
-    }
-}
-
-fn ms(a: Instant, b: Instant) -> f64 {
-    (b - a).as_secs_f64() * 1e3
-}
-
-/// Hierarchy thresholds for a scene: the defaults, which are sized for a human head.
-fn hierarchy_params(scene: &Scene) -> HierarchyParams {
-    scene.hierarchy.params()
-}
 
 #[cfg(test)]
 mod tests {
