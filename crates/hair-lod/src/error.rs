@@ -83,6 +83,18 @@ pub enum LodError {
         /// Why the operation cannot be done.
         reason: &'static str,
     },
+    /// A node's control points, as a caller's layout places them, are not within its fields.
+    #[error("node {node}: control points {start}..{end} are not within fields of {len} values")]
+    PointsOutOfRange {
+        /// The node.
+        node: u32,
+        /// Where the layout starts its points.
+        start: usize,
+        /// Where the layout ends them.
+        end: usize,
+        /// Length of the shortest field.
+        len: usize,
+    },
     /// The front, state and hierarchy do not belong together.
     #[error("front or state was made for another hierarchy ({what})")]
     Mismatch {

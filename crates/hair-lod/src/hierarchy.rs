@@ -192,6 +192,11 @@ impl Hierarchy {
         self.cp_start[node as usize] as usize
     }
 
+    /// Where the node's control points lie in per-control-point arrays over all nodes.
+    pub fn control_point_range(&self, node: u32) -> Range<usize> {
+        self.cp_start[node as usize] as usize..self.cp_start[node as usize + 1] as usize
+    }
+
     /// Control points of all nodes together (the length of per-control-point arrays).
     pub fn control_point_total(&self) -> usize {
         self.offsets.len()

@@ -12,6 +12,7 @@
 //! | [`select`], [`SelectParams`], [`NodeInputs`], [`Activity`], [`Front`], [`Plan`] | the pure per-step decision: visibility, distance, speed and activity against per-level intervals |
 //! | [`apply`], [`split`], [`merge`], [`try_merge`], [`merge_check`], [`MergeParams`] | transitions that carry motion and properties |
 //! | [`LodState`], [`LodBond`], [`cut`], [`add_bond`] | per-node motion (bend from rest, angular velocities) and properties (wetness, stiffness, thickness, length, cut, bonds) |
+//! | [`inherit_edits`], [`InheritScratch`] | edits of active nodes carried to every level, any layout |
 //! | [`AdaptiveLod`], [`AdaptiveSettings`], [`View`], [`BodyDepth`] | the `adaptive` policy over a strand state: visibility (view cone, the body's depth image), held speeds and hidden-step counts (hysteresis), one selection and transition per step |
 //! | [`test_heads`] | a procedural stand-in for the Ward & Lin benchmark head |
 //!
@@ -91,7 +92,7 @@ pub use build::{HierarchyParams, MinGroup};
 pub use error::LodError;
 pub use hairstyle::{Hairstyle, Strand};
 pub use hierarchy::{Hierarchy, HierarchyStats, LevelCount, NO_PARENT, NodeKind};
-pub use inherit::{add_bond, cut};
+pub use inherit::{InheritScratch, add_bond, cut, inherit_edits};
 pub use select::{
     Activity, Front, MERGE_MARGIN, NodeInputs, Plan, SelectParams, rendered, select, select_into,
 };

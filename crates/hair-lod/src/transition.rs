@@ -9,7 +9,7 @@
 //! spring first pulls each child's motion toward the average, one fraction per step; beyond, the
 //! merge waits.
 
-use crate::inherit::{average_up, inherit_down, weighted_mean_into};
+use crate::inherit::{average_up, copy_points, inherit_down, weighted_mean, weighted_mean_into};
 use crate::{Front, Hierarchy, LodError, LodState, Plan, Point, Real, Vector};
 use hair_dynamics::{Bend, bend_between};
 use nalgebra::Matrix3;
@@ -121,17 +121,14 @@ pub fn split(
             reason: "a leaf has no children",
         });
     }
-    let ps = h.control_point_start(node);
-    let n = h.control_points(node);
     for c in h.children(node) {
-        let cs = h.control_point_start(c);
         for field in [
             &mut state.d_theta,
             &mut state.d_phi,
             &mut state.omega_theta,
             &mut state.omega_phi,
         ] {
-            field.copy_within(ps..ps + n, cs);
+            copy_points(field, h.control_point_range(node), h.control_point_range(c));
         }
         front.active[c as usize] = true;
     }
@@ -237,7 +234,6 @@ pub fn try_merge(
 fn pull(h: &Hierarchy, state: &mut LodState, parent: u32, rate: Real) {
     let n = h.control_points(parent);
     let kids = h.children(parent);
-    let total: f64 = kids.clone().map(|c| f64::from(h.strand_count(c))).sum();
     for field in [
         &mut state.d_theta,
         &mut state.d_phi,
@@ -245,16 +241,10 @@ fn pull(h: &Hierarchy, state: &mut LodState, parent: u32, rate: Real) {
         &mut state.omega_phi,
     ] {
         for j in 0..n {
-            let mean = kids
-                .clone()
-                .map(|c| {
-                    f64::from(h.strand_count(c)) * f64::from(field[h.control_point_start(c) + j])
-                })
-                .sum::<f64>()
-                / total;
+            let mean = weighted_mean(h, field, parent, j);
             for c in kids.clone() {
                 let x = &mut field[h.control_point_start(c) + j];
-                *x += rate * (mean as Real - *x);
+                *x += rate * (mean - *x);
             }
         }
     }
@@ -292,14 +282,7 @@ fn merge_gap_with(
 ) -> Real {
     let n = h.control_points(parent);
     let kids = h.children(parent);
-    let total: f64 = kids.clone().map(|c| f64::from(h.strand_count(c))).sum();
-    let mean = |field: &[Real], j: usize| -> Real {
-        (kids
-            .clone()
-            .map(|c| f64::from(h.strand_count(c)) * f64::from(field[h.control_point_start(c) + j]))
-            .sum::<f64>()
-            / total) as Real
-    };
+    let mean = |field: &[Real], j: usize| weighted_mean(h, field, parent, j);
     let MergeScratch {
         mean_t,
         mean_p,

@@ -14,18 +14,20 @@
 //!
 //! Effects act on the front skeletons' control points (a section is the segment that ends at a
 //! control point, so touching a section touches that point) and are then carried to every other
-//! level of the hierarchy, so a level-of-detail change finds them already there (§6.6): the
-//! touched node's per-point wetness, stiffness factor and thickness factor are copied to all its
-//! descendants, and every ancestor takes the strand-weighted mean of its children. Wetness is per
-//! strand (the paper's percentage, in kg of water per skeleton control point): the water of the
-//! hair is `sum over skeletons of strands * wetness`, the same on every front. See `docs/salon.md`.
+//! level of the hierarchy, so a level-of-detail change finds them already there (§6.6), by
+//! `hair_lod::inherit_edits`: the touched node's per-point wetness, stiffness factor and
+//! thickness factor are copied to all its descendants, and every ancestor takes the
+//! strand-weighted mean of its children (a point a child lost to a cut adds nothing). Wetness is
+//! per strand (the paper's percentage, in kg of water per skeleton control point): the water of
+//! the hair is `sum over skeletons of strands * wetness`, the same on every front. See
+//! `docs/salon.md`.
 
 use crate::script::vec3;
 use crate::{SalonError, Tool, ToolAction, ToolError, ToolEvent, ToolScript};
 use hair_collide::{BodyConstraint, CollisionSettings};
 use hair_dynamics::{Bond, CutPoint, HeadMotion, Point, Real, SkeletonId, StrandState, Vector};
 use hair_grid::{Cone, Grid, InfluenceVolume, Section};
-use hair_lod::Hierarchy;
+use hair_lod::{Hierarchy, InheritScratch};
 use hair_ssv::MeshBody;
 
 /// Counters of the salon, per step (serialized flat into the per-frame metrics).
@@ -129,8 +131,9 @@ pub struct Salon {
     // Per hierarchy node.
     mark: Vec<bool>,
     dirty: Vec<u32>,
-    ancestors: Vec<u32>,
     stack: Vec<u32>,
+    node_points: Vec<core::ops::Range<usize>>,
+    inherit: InheritScratch,
     refresh: Vec<u32>,
     // Tools.
     fallen: Vec<Fallen>,
@@ -337,7 +340,7 @@ impl Salon {
         if let Some(i) = self.pressed[Tool::Grab.index()] {
             self.hold(state, inp, i as usize)?;
         }
-        self.propagate(state, inp.hierarchy);
+        self.propagate(state, inp.hierarchy)?;
         self.collide_fallen(state, inp)?;
         // Counters.
         self.last_bonds = state.bonds().len();
@@ -786,87 +789,39 @@ impl Salon {
         Ok(())
     }
 
-    /// Carries the touched nodes' properties through the hierarchy (copied down, strand-weighted
-    /// means up) and refreshes what they drive: springs, radius and wet stretch.
-    fn propagate(&mut self, state: &mut StrandState, h: &Hierarchy) {
+    /// Carries the touched nodes' properties through the hierarchy (`hair_lod::inherit_edits`:
+    /// copied down, strand-weighted means up) and refreshes what they drive on every node
+    /// changed: springs, radius and wet stretch.
+    fn propagate(&mut self, state: &mut StrandState, h: &Hierarchy) -> Result<(), ToolError> {
         if self.dirty.is_empty() {
-            return;
+            return Ok(());
         }
-        self.dirty.sort_unstable();
-        self.refresh.clear();
-        for di in 0..self.dirty.len() {
-            let n = self.dirty[di];
-            self.refresh.push(n);
-            let src = state.nodes(SkeletonId(n));
-            self.stack.clear();
-            self.stack.extend(h.children(n));
-            while let Some(d) = self.stack.pop() {
-                self.stack.extend(h.children(d));
-                let dst = state.nodes(SkeletonId(d));
-                let m = src.len().min(dst.len());
-                for j in 0..m {
-                    let (a, b) = (src.start + j, dst.start + j);
-                    let w = state.wetness()[a];
-                    state.wetness_mut()[b] = w;
-                    self.stiffness[b] = self.stiffness[a];
-                    self.thickness[b] = self.thickness[a];
-                }
-                self.refresh.push(d);
-            }
-        }
-        // Ancestors, deepest first.
-        self.ancestors.clear();
-        for di in 0..self.dirty.len() {
-            let mut a = h.parent(self.dirty[di]);
-            while let Some(p) = a {
-                if self.mark[p as usize] {
-                    break;
-                }
-                self.mark[p as usize] = true;
-                self.ancestors.push(p);
-                a = h.parent(p);
-            }
-        }
-        self.ancestors
-            .sort_unstable_by_key(|&p| (core::cmp::Reverse(h.level(p)), p));
-        for ai in 0..self.ancestors.len() {
-            let p = self.ancestors[ai];
-            let pr = state.nodes(SkeletonId(p));
-            for j in 0..pr.len() {
-                let (mut w, mut total, mut f, mut g, mut live) = (0.0f64, 0.0f64, 0.0, 0.0, 0.0);
-                for c in h.children(p) {
-                    let cr = state.nodes(SkeletonId(c));
-                    let m = f64::from(h.strand_count(c));
-                    total += m;
-                    if j < cr.len() {
-                        let i = cr.start + j;
-                        w += m * f64::from(state.wetness()[i]);
-                        f += m * f64::from(self.stiffness[i]);
-                        g += m * f64::from(self.thickness[i]);
-                        live += m;
-                    }
-                }
-                let i = pr.start + j;
-                if total > 0.0 {
-                    state.wetness_mut()[i] = (w / total) as Real;
-                }
-                if live > 0.0 {
-                    self.stiffness[i] = (f / live) as Real;
-                    self.thickness[i] = (g / live) as Real;
-                }
-            }
-            self.refresh.push(p);
-        }
-        for &p in &self.ancestors {
-            self.mark[p as usize] = false;
-        }
+        // The skeletons' ranges, read before the wetness is borrowed for writing.
+        self.node_points.clear();
+        self.node_points
+            .extend((0..h.node_count() as u32).map(|n| state.nodes(SkeletonId(n))));
+        let node_points = &self.node_points;
+        let result = hair_lod::inherit_edits(
+            h,
+            &self.dirty,
+            |n| node_points.get(n as usize).cloned().unwrap_or(0..0),
+            &mut [
+                state.wetness_mut(),
+                &mut self.stiffness[..],
+                &mut self.thickness[..],
+            ],
+            &mut self.inherit,
+            &mut self.refresh,
+        );
         for &d in &self.dirty {
             self.mark[d as usize] = false;
         }
         self.dirty.clear();
+        result?;
         for ri in 0..self.refresh.len() {
             self.refresh_node(state, SkeletonId(self.refresh[ri]));
         }
+        Ok(())
     }
 
     /// Springs, radius and wet stretch of one skeleton from its factors and water.
