@@ -10,6 +10,9 @@
 //! | [`fit_lss`], [`fit_rss`], [`fit_rss_triangles`] | tight volumes around point and triangle sets |
 //! | [`Bvh`] | RSS hierarchy over a triangle mesh (points search a four-wide tree of its boxes, with four triangles per exact test): closest triangle, contacts within a margin, rayon batches, ray casts |
 //! | [`CylinderMap`], [`SphereMap`], [`Body`] | Kurihara's collision tables: bilinear lookup, inside test, nearest surface point |
+//! | [`head`] | the procedural head and shoulders (mesh and collision tables), with its dimensions |
+//! | [`any_perpendicular`] | a unit vector perpendicular to any vector, zero included |
+//! | `test_meshes` (feature `test-support`) | a seeded generator and samplers for tests and benches |
 //! | [`SsvError`] | the one error type |
 //!
 //! ```
@@ -40,17 +43,18 @@ mod distance;
 mod distance_batch;
 mod error;
 pub mod fit;
+pub mod head;
 pub mod query;
 mod ray;
 mod shape;
 mod sphere_map;
 mod surface_map;
-#[doc(hidden)]
+#[cfg(feature = "test-support")]
 pub mod test_meshes;
 
 pub use body::{Body, BodyPart, PartMap};
 pub use bvh::{Bvh, ContactBatch, MeshClosest, MeshContact};
-pub use contact::Contact;
+pub use contact::{Contact, any_perpendicular};
 pub use cylinder_map::{CylinderMap, CylinderMapConfig};
 pub use distance::{
     distance_lss_lss, distance_lss_rss, distance_pss_lss, distance_pss_pss, distance_pss_rss,
