@@ -12,7 +12,7 @@ pub fn from_spec(spec: &BodySpec, base_dir: &Path) -> Result<Option<MeshBody>, H
     let (vertices, triangles, maps_wanted) = match spec {
         BodySpec::None => return Ok(None),
         BodySpec::Head { resolution } => {
-            let (v, t) = hair_ssv::test_meshes::head_and_shoulders(*resolution as usize);
+            let (v, t) = hair_ssv::head::head_and_shoulders(*resolution as usize);
             (v, t, true)
         }
         BodySpec::Torus {
@@ -62,9 +62,7 @@ pub fn from_spec(spec: &BodySpec, base_dir: &Path) -> Result<Option<MeshBody>, H
         _ => HairError::Ssv(source),
     })?;
     if maps_wanted {
-        body.maps = Some(hair_ssv::test_meshes::head_and_shoulders_body(
-            &body.bvh, 64,
-        )?);
+        body.maps = Some(hair_ssv::head::head_and_shoulders_body(&body.bvh, 64)?);
     }
     Ok(Some(body))
 }

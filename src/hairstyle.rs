@@ -22,7 +22,7 @@ const DRAPE_CLEARANCE: Real = 0.004;
 /// shoulders is moved out onto that margin along the part's radius, then back to the segment's
 /// length (three times).
 fn drape(points: &mut [Point], clearance: Real) {
-    use hair_ssv::test_meshes::{NECK_RADIUS, SHOULDERS};
+    use hair_ssv::head::{NECK_RADIUS, SHOULDERS};
     let out_of = |q: Point| -> Point {
         let mut q = q;
         for (c, r) in [([0.0, 0.0, 0.0], SCALP), SHOULDERS] {

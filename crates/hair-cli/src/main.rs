@@ -17,6 +17,7 @@ mod study;
 mod view;
 
 use clap::{Parser, Subcommand};
+use hair_grid::Kernel;
 
 /// Interactive, physically based hair: simulation, collision, level of detail.
 #[derive(Debug, Parser)]
@@ -50,24 +51,40 @@ enum Command {
     View(view::Args),
 }
 
+/// The grid kernel `HAIR_GRID_KERNEL` asks for (`avx512`, `avx2`, `baseline` or `auto`; unset:
+/// `auto`, the widest this processor has), or the value when it names no kernel. `hair bench
+/// grid` runs it, so that one machine measures every kernel; `hair run` builds its grid with
+/// the facade's defaults (every kernel gives the same pairs, so its results do not depend on
+/// it).
+fn grid_kernel_from_env() -> Result<Kernel, String> {
+    match std::env::var("HAIR_GRID_KERNEL") {
+        Err(std::env::VarError::NotPresent) => Ok(Kernel::Auto),
+        Err(std::env::VarError::NotUnicode(v)) => Err(v.to_string_lossy().into_owned()),
+        Ok(v) => Kernel::from_name(v.trim()).map_err(|_| v),
+    }
+}
+
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     // A misspelt kernel would otherwise run the widest one unnoticed, and its figures would be
-    // taken for the narrower kernel's.
-    if let Err(value) = hair::grid::requested_kernel() {
-        eprintln!(
-            "error: HAIR_GRID_KERNEL={value:?} names no kernel (avx512, avx2 or baseline; unset: \
-             the widest this processor has)"
-        );
-        return std::process::ExitCode::FAILURE;
-    }
+    // taken for the narrower kernel's: every command refuses it before any work.
+    let grid_kernel = match grid_kernel_from_env() {
+        Ok(kernel) => kernel,
+        Err(value) => {
+            eprintln!(
+                "error: HAIR_GRID_KERNEL={value:?} names no kernel (avx512, avx2, baseline or \
+                 auto; unset: the widest this processor has)"
+            );
+            return std::process::ExitCode::FAILURE;
+        }
+    };
     let result = match cli.command {
         Command::Run(args) => run::run(args),
         Command::Scenes(args) => scenes::run(args),
         Command::Convert(args) => convert::run(args),
         Command::Stability(args) => stability::run(args),
         Command::Accuracy(args) => accuracy::run(args),
-        Command::Bench(args) => bench::run(args),
+        Command::Bench(args) => bench::run(args, grid_kernel),
         Command::Hierarchy(args) => hierarchy::run(args),
         Command::RenderCheck(args) => render_check::run(args),
         Command::Study(args) => study::run(args),

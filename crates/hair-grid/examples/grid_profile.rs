@@ -14,11 +14,14 @@
 //! difference. With `HAIR_GRID_SECTIONS=FILE` it profiles the sections in `FILE` instead (per
 //! section, little endian: `a`, `b` and the radius as 7 `f32`, then skeleton and segment as 2
 //! `u32`), for instance a simulation's sections at one step (the root crate's
-//! `examples/grid_sections.rs` writes them).
+//! `examples/grid_sections.rs` writes them). `HAIR_GRID_KERNEL=avx512|avx2|baseline` runs that
+//! kernel ([`GridConfig::kernel`]; unset: the widest this processor has), so that one machine
+//! measures all of them; the kernel run is printed first. `docs/perf/grid.md` records what was
+//! measured with it.
 use std::time::Instant;
 
 use hair_grid::test_scenes::head_shell;
-use hair_grid::{Grid, GridConfig, PairSet};
+use hair_grid::{Grid, GridConfig, Kernel, PairSet};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -56,10 +59,16 @@ fn main() {
     };
     // Optional third argument: the cell size in metres (default: the mean segment length).
     let cell_size: Option<f32> = args.get(3).and_then(|s| s.parse().ok());
-    let mut grid = Grid::new(GridConfig {
+    let kernel = match std::env::var("HAIR_GRID_KERNEL") {
+        Ok(name) => Kernel::from_name(name.trim()).expect("HAIR_GRID_KERNEL names a kernel"),
+        Err(_) => Kernel::Auto,
+    };
+    let mut grid = Grid::try_new(GridConfig {
         cell_size,
+        kernel,
         ..GridConfig::default()
-    });
+    })
+    .expect("this processor runs the kernel");
     let mut pairs = PairSet::new();
     grid.rebuild(&secs).unwrap();
     grid.overlapping_pairs(&mut pairs);
@@ -107,7 +116,8 @@ fn main() {
         }
     }
     println!(
-        "build min {:.1} med {:.1} | pairs min {:.1} med {:.1} | pairs {} cand {} entries {} cells {} hash {:x} {:x} {:x}",
+        "{} | build min {:.1} med {:.1} | pairs min {:.1} med {:.1} | pairs {} cand {} entries {} cells {} hash {:x} {:x} {:x}",
+        grid.kernel(),
         tb.first().unwrap_or(&0.0),
         tb.get(tb.len() / 2).unwrap_or(&0.0),
         tp.first().unwrap_or(&0.0),

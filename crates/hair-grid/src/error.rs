@@ -90,4 +90,21 @@ pub enum GridError {
         /// What is required.
         requirement: &'static str,
     },
+    /// A kernel name that names no kernel ([`Kernel::from_name`](crate::Kernel::from_name)).
+    #[error("`{name}` names no grid kernel (auto, avx512, avx2 or baseline)")]
+    UnknownKernel {
+        /// The name given.
+        name: String,
+    },
+    /// `GridConfig::kernel` names a kernel whose instructions this processor lacks
+    /// ([`Grid::try_new`](crate::Grid::try_new)).
+    #[error(
+        "GridConfig::kernel is {kernel}, which this processor cannot run (the widest it runs is {widest})"
+    )]
+    KernelUnavailable {
+        /// The kernel asked for.
+        kernel: &'static str,
+        /// The widest kernel this processor runs.
+        widest: &'static str,
+    },
 }

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use crate::cell_key::{CellKey, LATTICE_HALF};
 use crate::cover::{self, CellBox};
+use crate::kernel::{Kernel, Selected};
 use crate::pairs::{Line, PBox, Packed, line_of};
 use crate::{GridError, Point, Real, Ssv};
 
@@ -50,6 +51,12 @@ pub struct GridConfig {
     /// [`GridError::TooManyCells`]. Influence volumes are clipped to the cells around the hair
     /// first. Default 2^24.
     pub max_cells_per_volume: u64,
+    /// The instruction set of the pair search and of the rebuild's covers. Every kernel gives
+    /// the same cells and pairs in the same order; only the time differs. Default
+    /// [`Kernel::Auto`]: the widest this processor has. [`Grid::try_new`] refuses a kernel the
+    /// processor lacks; [`Grid::new`] and [`Grid::set_config`] run the widest narrower one
+    /// instead ([`Grid::kernel`] tells which runs).
+    pub kernel: Kernel,
 }
 
 impl Default for GridConfig {
@@ -60,6 +67,7 @@ impl Default for GridConfig {
             skip_neighbours: 1,
             max_cells_per_item: 1 << 16,
             max_cells_per_volume: 1 << 24,
+            kernel: Kernel::Auto,
         }
     }
 }
@@ -113,6 +121,8 @@ pub(crate) struct CoverChunk {
 #[derive(Debug)]
 pub struct Grid {
     pub(crate) config: GridConfig,
+    /// The kernel of `config.kernel` on this processor.
+    pub(crate) kernel: Selected,
     pub(crate) cell_size: Real,
     pub(crate) inv: f64,
     len: usize,
@@ -287,7 +297,11 @@ const SHORT: usize = 32;
 /// outside the lattice, a longer range): the general path then covers it or reports the error.
 /// Every value is computed by the same expressions as [`core_in_cells`] and [`cell_range`].
 #[inline]
-fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64; 3], u64)> {
+pub(crate) fn short_line(
+    l: &hair_ssv::Lss,
+    inv: f64,
+    grow: f64,
+) -> Option<([i64; 3], [i64; 3], u64)> {
     // The shape is valid and inside the lattice when the radius is not negative and the ends,
     // in cells and grown by `r`, lie in `[-2^20, 2^20)`: `floor(v) >= -2^20` is `v >= -2^20`,
     // `floor(v) < 2^20` is `v < 2^20`, and any NaN or infinite coordinate or radius fails one
@@ -334,307 +348,7 @@ fn short_line(l: &hair_ssv::Lss, inv: f64, grow: f64) -> Option<([i64; 3], [i64;
 }
 
 /// A short cover ([`short_line`]'s result) for up to eight sections.
-type Covers8 = [Option<([i64; 3], [i64; 3], u64)>; 8];
-
-/// The sections' ends and radii by lane into `f` (`[a.x, a.y, a.z, b.x, b.y, b.z, radius]`, each
-/// eight lanes, zeros to begin with); returns the lanes that are an LSS as bits. A lane that is
-/// not keeps zeros, and the lane kernels drop it.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn lines8(secs: &[Section], f: &mut [[f32; 8]; 7]) -> u32 {
-    let mut line = 0u32;
-    for (l, s) in secs.iter().take(8).enumerate() {
-        if let Ssv::Line(ln) = &s.shape {
-            for k in 0..3 {
-                f[k][l] = ln.a[k];
-                f[3 + k][l] = ln.b[k];
-            }
-            f[6][l] = ln.radius;
-            line |= 1 << l;
-        }
-    }
-    line
-}
-
-/// [`short_line`]'s arithmetic on lanes, for the sections whose cover lies within 2 x 2 x 2
-/// cells: from the ends in cells `$va`, `$vb` and the radius `$radius` (`f64` lanes), the lanes
-/// that are such a cover (bits, from `$ok`, the lanes that are an LSS), the cell ranges' low and
-/// high corners (`i64` lanes) and the masks of [`cover::small_mask`], as `(ok, cl, ch, mask)`.
-/// Written once for the AVX-512 and AVX2 kernels, which then run the same operations in the same
-/// order. `$cmp::<P>(a, b)` compares into a lane mask, `$and` joins two, `$bits` turns one into
-/// bits, `$blend(m, no, yes)` takes `yes` where it is set, `$floor` is `floor_small` as an integer
-/// and a float, `$narrow` the bits of the integer lanes of at most 2, `$single` the mask of those
-/// of 1, and `$set(mask, m, bit)` sets `bit` in the integer lanes where `m` is set. Every case of
-/// the scalar small mask is computed and then selected: which one applies is as likely one way
-/// as the other, and in the scalar loop their branches mispredict.
-#[cfg(target_arch = "x86_64")]
-macro_rules! small_cover_lanes {
-    ($va:expr, $vb:expr, $radius:expr, $ok:expr, $inv:expr, $grow:expr, $v:ty,
-     add: $add:expr, sub: $sub:expr, mul: $mul:expr, div: $div:expr, min: $min:expr,
-     max: $max:expr, abs: $abs:expr, splat: $splat:expr, cmp: $cmp:ident, and: $and:expr,
-     bits: $bits:expr, blend: $blend:expr, floor: $floor:expr, int_sub: $isub:expr,
-     int_one: $ione:expr, int_add: $iadd:expr, narrow: $narrow:expr, single: $single:expr,
-     int_zero: $izero:expr, set: $set:expr) => {{
-        let (va, vb, radius): ([$v; 3], [$v; 3], $v) = ($va, $vb, $radius);
-        let (add, sub, mul, min, max, blend, and) = ($add, $sub, $mul, $min, $max, $blend, $and);
-        let (zero, one): ($v, $v) = ($splat(0.0), $splat(1.0));
-        let inv_v = $splat($inv);
-        let r = add(mul(add(radius, $splat($grow)), inv_v), $splat(EPS_CELLS));
-        let half = $splat(LATTICE_HALF as f64);
-        // Not negative (NaN fails too, through `r` below).
-        let mut ok: u32 = $ok & $bits($cmp::<_CMP_GE_OQ>(radius, zero));
-        let mut cl = [$izero; 3];
-        let mut ch = [$izero; 3];
-        let mut axes = [[zero; 4]; 3];
-        for k in 0..3 {
-            let (a, b) = (va[k], vb[k]);
-            // `if a < b { (a, b) } else { (b, a) }`.
-            let (mn, mx) = (min(a, b), max(b, a));
-            let (lo, hi) = (sub(mn, r), add(mx, r));
-            ok &= $bits(and(
-                $cmp::<_CMP_GE_OQ>(lo, sub(zero, half)),
-                $cmp::<_CMP_LT_OQ>(hi, half),
-            ));
-            let (lo_i, lo_f) = $floor(lo);
-            let (hi_i, _) = $floor(hi);
-            cl[k] = lo_i;
-            ch[k] = hi_i;
-            let n = $iadd($isub(hi_i, lo_i), $ione);
-            // At most two cells along every axis.
-            ok &= $narrow(n);
-            let single = $single(n);
-            // `cover::small_mask`'s bounds of the axis, every case.
-            let d = sub(b, a);
-            let inv_d = $div(one, d);
-            let base = sub(lo_f, a);
-            let up = mul(add(add(base, one), r), inv_d);
-            let down = mul(sub(add(base, one), r), inv_d);
-            let rising = $cmp::<_CMP_GT_OQ>(d, zero);
-            let sloped = [
-                blend(rising, max(up, zero), zero),
-                blend(rising, one, min(up, one)),
-                blend(rising, zero, max(down, zero)),
-                blend(rising, min(down, one), one),
-            ];
-            let upper = |f: $v| {
-                let inside = and(
-                    $cmp::<_CMP_GE_OQ>(a, sub(f, r)),
-                    $cmp::<_CMP_LE_OQ>(a, add(add(f, one), r)),
-                );
-                blend(inside, $splat(-1.0), one)
-            };
-            let flat = [zero, upper(lo_f), zero, upper(add(lo_f, one))];
-            let slanted = $cmp::<_CMP_GT_OQ>($abs(d), $splat(cover::TINY));
-            let one_cell = [zero, one, $splat(2.0), $splat(-1.0)];
-            axes[k] = std::array::from_fn(|j| {
-                let along = blend(slanted, flat[j], sloped[j]);
-                blend(single, along, one_cell[j])
-            });
-        }
-        let [x, y, z] = axes;
-        let mut mask = $izero;
-        for i in 0..2 {
-            for j in 0..2 {
-                let y0 = max(y[2 * j], x[2 * i]);
-                let y1 = min(y[2 * j + 1], x[2 * i + 1]);
-                for k in 0..2 {
-                    let keep = $cmp::<_CMP_LE_OQ>(max(z[2 * k], y0), min(z[2 * k + 1], y1));
-                    mask = $set(mask, keep, 1i64 << (4 * i + 2 * j + k));
-                }
-            }
-        }
-        (ok, cl, ch, mask)
-    }};
-}
-
-/// The covers of the lanes set in `ok` from their corners and masks (lanes `first..`).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn covers_out<const N: usize>(
-    out: &mut Covers8,
-    first: usize,
-    len: usize,
-    ok: u32,
-    (cl, ch, mask): (&[[i64; N]; 3], &[[i64; N]; 3], &[i64; N]),
-) {
-    for l in 0..N {
-        let o = first + l;
-        if o < len && ok & (1 << l) != 0 {
-            out[o] = Some((
-                [cl[0][l], cl[1][l], cl[2][l]],
-                [ch[0][l], ch[1][l], ch[2][l]],
-                SMALL | mask[l] as u64,
-            ));
-        }
-    }
-}
-
-/// `floor_small`'s constant: `1.5 * 2^52`, whose sum with a small value rounds it to an integer
-/// held in the low bits.
-#[cfg(target_arch = "x86_64")]
-const MAGIC: f64 = 6_755_399_441_055_744.0;
-
-/// [`short_line`] for eight sections at once with AVX-512, for the sections whose cover lies
-/// within 2 x 2 x 2 cells (most hair sections): the same expressions, lane by lane
-/// ([`small_cover_lanes`]), so the same ranges and masks, into `out`. Every other section (not an LSS,
-/// outside the lattice, a negative or NaN radius, a longer range) gets `None`, for the scalar
-/// path to cover or reject.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-#[allow(unsafe_code)]
-fn small_covers_avx512(secs: &[Section], inv: f64, grow: f64, out: &mut Covers8) {
-    use std::arch::x86_64::{
-        __m512d, __m512i, __mmask8, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm512_abs_pd,
-        _mm512_add_epi64, _mm512_add_pd, _mm512_castpd_si512, _mm512_cmp_pd_mask,
-        _mm512_cmpeq_epi64_mask, _mm512_cmple_epi64_mask, _mm512_cvtps_pd, _mm512_div_pd,
-        _mm512_mask_blend_pd, _mm512_mask_or_epi64, _mm512_mask_sub_epi64, _mm512_max_pd,
-        _mm512_min_pd, _mm512_mul_pd, _mm512_set1_epi64, _mm512_set1_pd, _mm512_setzero_si512,
-        _mm512_storeu_epi64, _mm512_sub_epi64, _mm512_sub_pd,
-    };
-    *out = [None; 8];
-    let mut f = [[0.0f32; 8]; 7];
-    let line = lines8(secs, &mut f);
-    let wide = |c: &[f32; 8]| -> __m512d {
-        // SAFETY: eight floats.
-        _mm512_cvtps_pd(unsafe { std::arch::x86_64::_mm256_loadu_ps(c.as_ptr()) })
-    };
-    let inv_v = _mm512_set1_pd(inv);
-    let va: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[k]), inv_v));
-    let vb: [__m512d; 3] = std::array::from_fn(|k| _mm512_mul_pd(wide(&f[3 + k]), inv_v));
-    let one = _mm512_set1_pd(1.0);
-    let magic = _mm512_set1_pd(MAGIC);
-    let magic_bits = _mm512_set1_epi64(MAGIC.to_bits() as i64);
-    let one_i = _mm512_set1_epi64(1);
-    // `floor_small`: the floor as an integer and as a float (exact: small integers).
-    let floor = |v: __m512d| -> (__m512i, __m512d) {
-        let sum = _mm512_add_pd(v, magic);
-        let back = _mm512_sub_pd(sum, magic);
-        let over = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(back, v);
-        let k = _mm512_sub_epi64(_mm512_castpd_si512(sum), magic_bits);
-        let k = _mm512_mask_sub_epi64(k, over, k, one_i);
-        (
-            k,
-            _mm512_mask_blend_pd(over, back, _mm512_sub_pd(back, one)),
-        )
-    };
-    let (ok, cl, ch, mask) = small_cover_lanes!(
-        va, vb, wide(&f[6]), line, inv, grow, __m512d,
-        add: _mm512_add_pd,
-        sub: _mm512_sub_pd,
-        mul: _mm512_mul_pd,
-        div: _mm512_div_pd,
-        min: _mm512_min_pd,
-        max: _mm512_max_pd,
-        abs: _mm512_abs_pd,
-        splat: _mm512_set1_pd,
-        cmp: _mm512_cmp_pd_mask,
-        and: |a: __mmask8, b: __mmask8| a & b,
-        bits: u32::from,
-        blend: |m: __mmask8, no, yes| _mm512_mask_blend_pd(m, no, yes),
-        floor: floor,
-        int_sub: _mm512_sub_epi64,
-        int_one: one_i,
-        int_add: _mm512_add_epi64,
-        narrow: |n| u32::from(_mm512_cmple_epi64_mask(n, _mm512_set1_epi64(2))),
-        single: |n| _mm512_cmpeq_epi64_mask(n, one_i),
-        int_zero: _mm512_setzero_si512(),
-        set: |mask, keep, bit| _mm512_mask_or_epi64(mask, keep, mask, _mm512_set1_epi64(bit))
-    );
-    let lanes = |v: __m512i| -> [i64; 8] {
-        let mut t = [0i64; 8];
-        // SAFETY: eight 64-bit integers.
-        unsafe { _mm512_storeu_epi64(t.as_mut_ptr(), v) };
-        t
-    };
-    let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
-    covers_out(out, 0, secs.len(), ok, (&cl, &ch, &mask));
-}
-
-/// [`small_covers_avx512`] with AVX2: the same expressions ([`small_cover_lanes`]) in four `f64`
-/// lanes, run on each half of the eight sections, so the same ranges and masks. Without mask
-/// registers the lane tests are compare results (all ones where true), blended and turned into
-/// bits with `movemask`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-#[allow(unsafe_code)]
-fn small_covers_avx2(secs: &[Section], inv: f64, grow: f64, out: &mut Covers8) {
-    use std::arch::x86_64::{
-        __m256d, __m256i, _CMP_GE_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _mm_loadu_ps,
-        _mm256_add_epi64, _mm256_add_pd, _mm256_and_pd, _mm256_and_si256, _mm256_blendv_pd,
-        _mm256_castpd_si256, _mm256_castsi256_pd, _mm256_cmp_pd, _mm256_cmpeq_epi64,
-        _mm256_cmpgt_epi64, _mm256_cvtps_pd, _mm256_div_pd, _mm256_max_pd, _mm256_min_pd,
-        _mm256_movemask_pd, _mm256_mul_pd, _mm256_or_si256, _mm256_set1_epi64x, _mm256_set1_pd,
-        _mm256_setzero_si256, _mm256_storeu_si256, _mm256_sub_epi64, _mm256_sub_pd,
-    };
-    *out = [None; 8];
-    let mut f = [[0.0f32; 8]; 7];
-    let line = lines8(secs, &mut f);
-    let bits = |m: __m256d| _mm256_movemask_pd(m) as u32;
-    let lanes = |v: __m256i| -> [i64; 4] {
-        let mut t = [0i64; 4];
-        // SAFETY: four 64-bit integers.
-        unsafe { _mm256_storeu_si256(t.as_mut_ptr().cast(), v) };
-        t
-    };
-    let one = _mm256_set1_pd(1.0);
-    let magic = _mm256_set1_pd(MAGIC);
-    let magic_bits = _mm256_set1_epi64x(MAGIC.to_bits() as i64);
-    let one_i = _mm256_set1_epi64x(1);
-    // `floor_small`: the floor as an integer and as a float (exact: small integers).
-    let floor = |v: __m256d| -> (__m256i, __m256d) {
-        let sum = _mm256_add_pd(v, magic);
-        let back = _mm256_sub_pd(sum, magic);
-        let over = _mm256_cmp_pd::<_CMP_GT_OQ>(back, v);
-        // `over` is all ones (-1) where set: adding it subtracts one.
-        let k = _mm256_sub_epi64(_mm256_castpd_si256(sum), magic_bits);
-        let k = _mm256_add_epi64(k, _mm256_castpd_si256(over));
-        (k, _mm256_blendv_pd(back, _mm256_sub_pd(back, one), over))
-    };
-    let (two_i, sign_off) = (
-        _mm256_set1_epi64x(2),
-        _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX)),
-    );
-    for half in 0..2 {
-        let wide = |c: &[f32; 8]| -> __m256d {
-            // SAFETY: four floats of the eight, from `4 * half`.
-            _mm256_cvtps_pd(unsafe { _mm_loadu_ps(c.as_ptr().add(4 * half)) })
-        };
-        let inv_v = _mm256_set1_pd(inv);
-        let va: [__m256d; 3] = std::array::from_fn(|k| _mm256_mul_pd(wide(&f[k]), inv_v));
-        let vb: [__m256d; 3] = std::array::from_fn(|k| _mm256_mul_pd(wide(&f[3 + k]), inv_v));
-        let (ok, cl, ch, mask) = small_cover_lanes!(
-            va, vb, wide(&f[6]), (line >> (4 * half)) & 0xf, inv, grow, __m256d,
-            add: _mm256_add_pd,
-            sub: _mm256_sub_pd,
-            mul: _mm256_mul_pd,
-            div: _mm256_div_pd,
-            min: _mm256_min_pd,
-            max: _mm256_max_pd,
-            // |d| as d with the sign bit cleared.
-            abs: |d| _mm256_and_pd(d, sign_off),
-            splat: _mm256_set1_pd,
-            cmp: _mm256_cmp_pd,
-            and: _mm256_and_pd,
-            bits: bits,
-            blend: |m, no, yes| _mm256_blendv_pd(no, yes, m),
-            floor: floor,
-            int_sub: _mm256_sub_epi64,
-            int_one: one_i,
-            int_add: _mm256_add_epi64,
-            narrow: |n| !bits(_mm256_castsi256_pd(_mm256_cmpgt_epi64(n, two_i))) & 0xf,
-            single: |n| _mm256_castsi256_pd(_mm256_cmpeq_epi64(n, one_i)),
-            int_zero: _mm256_setzero_si256(),
-            set: |mask, keep, bit| _mm256_or_si256(
-                mask,
-                _mm256_and_si256(_mm256_castpd_si256(keep), _mm256_set1_epi64x(bit))
-            )
-        );
-        let (cl, ch, mask) = (cl.map(lanes), ch.map(lanes), lanes(mask));
-        covers_out(out, 4 * half, secs.len(), ok, (&cl, &ch, &mask));
-    }
-}
+pub(crate) type Covers8 = [Option<([i64; 3], [i64; 3], u64)>; 8];
 
 /// Bit of a cell `d = (dx, dy, dz)` away, each in `-3..=3`, in an earlier-cell bit set
 /// ([`crate::pairs::earlier_bits`]): `25 (dx + 2) + 5 (dy + 2) + (dz + 2)` inside the 5 x 5 x 5
@@ -722,7 +436,7 @@ const KEY8: [u64; 8] = key_offsets(2);
 /// Marks a cover mask given by [`cover::small_mask`] (a byte). Never a cell of a
 /// [`cover::short_mask`]: bit 63 is the cell `(3, 3, 3)` of a range of 64 cells, more than
 /// [`SHORT`].
-const SMALL: u64 = 1 << 63;
+pub(crate) const SMALL: u64 = 1 << 63;
 
 /// Appends the keys of a cover given as a mask over the cells from `cl` (bit `16 i + 4 j + k`
 /// for cell `cl + (i, j, k)`, so that bit order is key order; or [`SMALL`] and the byte of a
@@ -772,7 +486,10 @@ const PREFETCH: usize = 16;
 #[inline(always)]
 fn prefetch<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
+    #[expect(
+        unsafe_code,
+        reason = "the prefetch intrinsic takes a raw pointer; sound: it is a hint that reads nothing and never faults"
+    )]
     // SAFETY: a prefetch neither reads memory the program sees nor faults on any address.
     unsafe {
         std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast())
@@ -807,10 +524,25 @@ fn pack_i64(c: [i64; 3]) -> u64 {
 }
 
 impl Grid {
-    /// An empty grid with the given configuration.
+    /// An empty grid with the given configuration. A [`GridConfig::kernel`] this processor
+    /// lacks is replaced by the widest narrower one it has ([`Grid::try_new`] refuses it).
     pub fn new(config: GridConfig) -> Self {
+        Self::with_kernel(Selected::at_most(config.kernel), config)
+    }
+
+    /// An empty grid with the given configuration, whose kernel this processor runs.
+    ///
+    /// # Errors
+    /// [`GridError::KernelUnavailable`] when [`GridConfig::kernel`] names a kernel this
+    /// processor lacks.
+    pub fn try_new(config: GridConfig) -> Result<Self, GridError> {
+        Ok(Self::with_kernel(Selected::try_new(config.kernel)?, config))
+    }
+
+    fn with_kernel(kernel: Selected, config: GridConfig) -> Self {
         Self {
             config,
+            kernel,
             cell_size: 0.0,
             inv: 0.0,
             len: 0,
@@ -839,9 +571,17 @@ impl Grid {
         &self.config
     }
 
-    /// Replaces the configuration; takes effect at the next [`Grid::rebuild`].
+    /// Replaces the configuration; takes effect at the next [`Grid::rebuild`]. A kernel this
+    /// processor lacks is replaced as in [`Grid::new`].
     pub fn set_config(&mut self, config: GridConfig) {
+        self.kernel = Selected::at_most(config.kernel);
         self.config = config;
+    }
+
+    /// The kernel this grid runs (never [`Kernel::Auto`]): [`GridConfig::kernel`] resolved on
+    /// this processor.
+    pub fn kernel(&self) -> Kernel {
+        self.kernel.kernel()
     }
 
     /// Cell edge length of the last rebuild, in metres (0 before the first).
@@ -1133,9 +873,8 @@ impl Grid {
         self.n_chunks = n_chunks;
         let limit = u64::from(self.config.max_cells_per_item);
         let clip = CellBox::ALL;
-        // Eight short covers at a time where the processor has AVX-512 or AVX2.
-        #[cfg(target_arch = "x86_64")]
-        let wide = crate::pairs::Kernel::best();
+        // Eight short covers at a time where the kernel has lanes for them.
+        let kernel = self.kernel;
         if self.shapes.len() < sections.len() {
             self.shapes.resize(sections.len(), sections[0].shape);
         }
@@ -1169,20 +908,8 @@ impl Grid {
                     if error.is_some() {
                         break;
                     }
-                    #[cfg(target_arch = "x86_64")]
                     if l % 8 == 0 {
-                        // SAFETY: each kernel runs only when `Kernel::best` found its
-                        // instructions on this processor.
-                        #[allow(unsafe_code)]
-                        match wide {
-                            crate::pairs::Kernel::Avx512 => {
-                                unsafe { small_covers_avx512(&secs[l..], inv, grow, &mut group) };
-                            }
-                            crate::pairs::Kernel::Avx2 => {
-                                unsafe { small_covers_avx2(&secs[l..], inv, grow, &mut group) };
-                            }
-                            crate::pairs::Kernel::Base => {}
-                        }
+                        kernel.small_covers(&secs[l..], inv, grow, &mut group);
                     }
                     // Nearly every hair section is a valid LSS with a small cell range: its cover
                     // comes as a mask, from which the keys and earlier-cell bit sets follow
@@ -1696,111 +1423,5 @@ mod tests {
             tested += 1;
         }
         assert!(tested > 10_000, "{tested}");
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[test]
-    fn eight_short_covers_at_once_are_the_scalar_ones() {
-        let (avx512, avx2) = (
-            std::arch::is_x86_feature_detected!("avx512f"),
-            std::arch::is_x86_feature_detected!("avx2"),
-        );
-        if !avx512 {
-            eprintln!("no AVX-512F on this processor: the AVX-512 covers are not tested");
-        }
-        if !avx2 {
-            eprintln!("no AVX2 on this processor: the AVX2 covers are not tested");
-            return;
-        }
-        // Seeded segments of about one cell and of a few, with the cases of `small_mask`: along
-        // a lattice axis, nearly so, ends on cell faces, single points, and bad shapes.
-        let mut z = 5u64;
-        let mut unit = || {
-            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            (z >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let (mut wide, mut small) = (0, 0);
-        for n in 0..4_000 {
-            let (inv, grow) = (1.0 + f64::from(unit()), f64::from(unit()) * 0.01);
-            let secs: Vec<Section> = (0..8)
-                .map(|k| {
-                    let case = (n * 8 + k) % 11;
-                    let mut a =
-                        Point::new(unit() * 8.0 - 4.0, unit() * 8.0 - 4.0, unit() * 8.0 - 4.0);
-                    if case == 1 {
-                        a = a.map(|c| c.round());
-                    }
-                    let span = if case == 2 { 3.0 } else { 1.2 };
-                    let mut b =
-                        a + crate::Vector::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * span;
-                    match case {
-                        3 => b[k % 3] = a[k % 3],
-                        4 => b[k % 3] = a[k % 3] + 1e-9,
-                        5 => b = a,
-                        _ => {}
-                    }
-                    let radius = match case {
-                        6 => -0.1,
-                        7 => f32::NAN,
-                        8 => 0.0,
-                        _ => unit() * 0.2,
-                    };
-                    if case == 9 {
-                        b.x = f32::INFINITY;
-                    }
-                    let shape = if case == 10 {
-                        Ssv::Point(hair_ssv::Pss::new(a, radius.abs()))
-                    } else {
-                        Ssv::Line(Lss::new(a, b, radius))
-                    };
-                    Section {
-                        skeleton: 0,
-                        segment: k as u32,
-                        shape,
-                    }
-                })
-                .collect();
-            let mut group = [None; 8];
-            // SAFETY: AVX2 was found above.
-            #[allow(unsafe_code)]
-            unsafe {
-                small_covers_avx2(&secs, inv, grow, &mut group)
-            };
-            if avx512 {
-                // Whatever `out` held before is replaced.
-                let mut group512 = [Some(([0; 3], [0; 3], 0)); 8];
-                // SAFETY: AVX-512F was found above.
-                #[allow(unsafe_code)]
-                unsafe {
-                    small_covers_avx512(&secs, inv, grow, &mut group512)
-                };
-                assert_eq!(group512, group);
-            }
-            // Fewer than eight sections: the lanes past them are emptied.
-            let mut five = [Some(([0; 3], [0; 3], 0)); 8];
-            // SAFETY: AVX2 was found above.
-            #[allow(unsafe_code)]
-            unsafe {
-                small_covers_avx2(&secs[..5], inv, grow, &mut five)
-            };
-            assert_eq!(five[..5], group[..5]);
-            assert_eq!(five[5..], [None; 3]);
-            for (s, got) in secs.iter().zip(group) {
-                let scalar = match &s.shape {
-                    Ssv::Line(l) => short_line(l, inv, grow),
-                    _ => None,
-                };
-                // Every cover of at most 2 x 2 x 2 cells comes out, exactly as the scalar one.
-                match scalar {
-                    Some((_, _, mask)) if mask & SMALL != 0 => {
-                        assert_eq!(got, scalar, "{s:?}");
-                        small += 1;
-                    }
-                    _ => assert_eq!(got, None, "{s:?}"),
-                }
-                wide += usize::from(got.is_some());
-            }
-        }
-        assert!(wide > 10_000 && small == wide, "{wide} {small}");
     }
 }

@@ -1,30 +1,11 @@
-//! Seeded hair scenes for benches, profiling and reports (not part of the stable API).
+//! Seeded hair scenes for tests, benches, profiling and reports (feature `test-support`).
 //!
 //! [`head_shell`] is the scene of `hair bench grid`, the crate's criterion benches and
 //! `examples/grid_profile.rs`, so that their figures describe the same sections.
 
 use crate::{Point, Section, Ssv, Vector};
 use hair_ssv::Lss;
-
-/// SplitMix64: a small seeded generator.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-}
+use hair_ssv::test_meshes::SplitMix;
 
 /// Head radius (m), segment length (m), segment radius (m).
 const HEAD: f32 = 0.1;
@@ -38,7 +19,7 @@ const RADIUS: f32 = 0.0005;
 pub fn head_shell(segments: usize, per_strand: usize, seed: u64) -> Vec<Section> {
     let per_strand = per_strand.max(1);
     let strands = segments.div_ceil(per_strand);
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix::new(seed);
     let mut out = Vec::with_capacity(strands * per_strand);
     let down = Vector::new(0.0, -1.0, 0.0);
     for s in 0..strands {
@@ -91,7 +72,7 @@ pub fn head_shell(segments: usize, per_strand: usize, seed: u64) -> Vec<Section>
 /// cells hold hundreds of sections (the pair search sweeps them). The same seed gives the same
 /// sections.
 pub fn wisp(strands: u32, seed: u64) -> Vec<Section> {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix::new(seed);
     let mut out = Vec::with_capacity(6 * strands as usize);
     for s in 0..strands {
         let mut p = Point::new(rng.unit(), 0.0, rng.unit()) * 0.03;

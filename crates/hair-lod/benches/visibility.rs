@@ -9,7 +9,7 @@ use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
     // The procedural head at `wardlin`'s resolution (about 53,000 triangles) and its camera.
-    let (vertices, triangles) = hair_ssv::test_meshes::head_and_shoulders(96);
+    let (vertices, triangles) = hair_ssv::head::head_and_shoulders(96);
     let body = OccluderMesh {
         vertices: &vertices,
         triangles: &triangles,

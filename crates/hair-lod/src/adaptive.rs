@@ -569,7 +569,7 @@ mod tests {
     }
 
     fn head() -> Head {
-        let (vertices, triangles) = hair_ssv::test_meshes::head_and_shoulders(24);
+        let (vertices, triangles) = hair_ssv::head::head_and_shoulders(24);
         Head {
             vertices,
             triangles,

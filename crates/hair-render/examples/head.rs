@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     save_png(&cpu, format!("{out}/head_cpu.png"))?;
     let renderer = Renderer::new();
     println!("renderer: {}", renderer.describe());
-    if let Renderer::Gpu(_) = renderer {
+    if !matches!(renderer, Renderer::Cpu(_)) {
         let t = std::time::Instant::now();
         let gpu = renderer.render_to_image(&scene, &settings)?;
         println!("gpu: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);

@@ -4,12 +4,12 @@
 use crate::geometry::{HAIR_TEXTURE_TEXELS, PreparedScene, hair_texture};
 use crate::osm::LightFrame;
 use crate::scene::{Real, RenderScene, RenderSettings, Vector};
-use bytemuck::{Pod, Zeroable};
 use nalgebra::Matrix4;
 
 /// The uniform block of both passes (layout matches `Globals` in `shaders/common.wgsl`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "gpu", derive(bytemuck::Pod, bytemuck::Zeroable))]
 pub struct Globals {
     /// Camera view-projection, column-major.
     pub cam_view_proj: [f32; 16],

@@ -4,7 +4,6 @@
 
 use crate::RenderError;
 use crate::scene::{Point, Real, RenderScene, StrandPoint, Vector, invalid};
-use bytemuck::{Pod, Zeroable};
 
 /// Ribbon kind: a single fibre, widened to the minimum width with its opacity scaled down.
 pub(crate) const KIND_STRAND: f32 = 0.0;
@@ -18,7 +17,8 @@ pub const HAIR_TEXTURE_TEXELS: usize = 64;
 
 /// One side of one point of a ribbon: the vertex stage moves it by `side * width` across.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "gpu", derive(bytemuck::Pod, bytemuck::Zeroable))]
 pub struct RibbonVertex {
     /// Centre-line position.
     pub position: [f32; 3],
@@ -48,7 +48,8 @@ pub struct RibbonVertex {
 
 /// A body vertex.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "gpu", derive(bytemuck::Pod, bytemuck::Zeroable))]
 pub struct BodyVertex {
     /// Position.
     pub position: [f32; 3],

@@ -23,6 +23,7 @@ fn empty_scene_renders_the_background() {
     let img = CpuRenderer.render_to_image(&scene, &small()).unwrap();
     assert_eq!(img.dimensions(), (32, 24));
     assert!(is_background(&img, scene.background));
+    #[cfg(feature = "gpu")]
     if let Some(gpu) = common::gpu("empty_scene_renders_the_background") {
         let img = gpu.render_to_image(&scene, &small()).unwrap();
         assert!(is_background(&img, scene.background));
@@ -56,6 +57,7 @@ fn non_finite_point_is_rejected_naming_the_strand() {
     scene.strands[2].points[0].radius = f32::INFINITY;
     let err = CpuRenderer.render_to_image(&scene, &small()).unwrap_err();
     assert!(err.to_string().contains("strand 2"), "{err}");
+    #[cfg(feature = "gpu")]
     if let Some(gpu) = common::gpu("non_finite_point_is_rejected") {
         assert!(matches!(
             gpu.render_to_image(&scene, &small()),
@@ -88,6 +90,7 @@ fn zero_size_is_an_error() {
     ));
 }
 
+#[cfg(feature = "gpu")]
 #[test]
 fn size_beyond_the_adapter_limit_is_an_error_not_a_device_loss() {
     let Some(gpu) = common::gpu("size_beyond_the_adapter_limit") else {

@@ -1,6 +1,8 @@
 //! The GPU path against the CPU reference on the same scenes: mean absolute difference at most
 //! 2/255 and 99th percentile at most 16/255; the images are written on failure.
 
+#![cfg(feature = "gpu")]
+
 mod common;
 
 use hair_render::*;

@@ -42,6 +42,7 @@ fn opacity_is_non_decreasing_from_first_map_to_last_cpu() {
     check_non_decreasing(&maps, "cpu");
 }
 
+#[cfg(feature = "gpu")]
 #[test]
 fn opacity_is_non_decreasing_from_first_map_to_last_gpu() {
     let Some(gpu) = common::gpu("opacity_is_non_decreasing_gpu") else {
@@ -131,6 +132,7 @@ fn strand_between_light_and_another_darkens_it_cpu() {
     });
 }
 
+#[cfg(feature = "gpu")]
 #[test]
 fn strand_between_light_and_another_darkens_it_gpu() {
     let Some(gpu) = common::gpu("strand_between_light_and_another_darkens_it_gpu") else {

@@ -1,5 +1,7 @@
 //! The WGSL validates with naga, with no GPU needed.
 
+#![cfg(feature = "gpu")]
+
 use hair_render::wgpu::naga;
 
 fn validate(name: &str, src: &str) {

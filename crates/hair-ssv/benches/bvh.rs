@@ -4,13 +4,14 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use hair_ssv::test_meshes::{SplitMix, head_and_shoulders, head_and_shoulders_body};
+use hair_ssv::head::{head_and_shoulders, head_and_shoulders_body};
+use hair_ssv::test_meshes::SplitMix;
 use hair_ssv::{Bvh, Lss, Pss, Ssv, SurfaceMap, Vector};
 
 fn bvh(c: &mut Criterion) {
     let (v, t) = head_and_shoulders(96);
     let bvh = Bvh::new(&v, &t).expect("valid mesh");
-    let mut rng = SplitMix(9);
+    let mut rng = SplitMix::new(9);
     let segs: Vec<Ssv> = (0..512)
         .map(|_| {
             let off = rng.range(-0.003, 0.006);

@@ -50,7 +50,7 @@ fn tri(rng: &mut SplitMix) -> [Point; 3] {
 }
 
 fn kernels(c: &mut Criterion) {
-    let mut rng = SplitMix(42);
+    let mut rng = SplitMix::new(42);
     let lss_pairs: Vec<(Lss, Lss)> = (0..N).map(|_| (lss(&mut rng), lss(&mut rng))).collect();
     let rss_pairs: Vec<(Rss, Rss)> = (0..N).map(|_| (rss(&mut rng), rss(&mut rng))).collect();
     let lss_rss: Vec<(Lss, Rss)> = (0..N).map(|_| (lss(&mut rng), rss(&mut rng))).collect();

@@ -8,7 +8,8 @@
 //! --tool=callgrind` with repeat 1 and 3; half the difference of the totals is one pass.
 use std::time::Instant;
 
-use hair_ssv::test_meshes::{SplitMix, head_and_shoulders};
+use hair_ssv::head::head_and_shoulders;
+use hair_ssv::test_meshes::SplitMix;
 use hair_ssv::{Bvh, Pss, Ssv};
 
 fn main() {
@@ -18,7 +19,7 @@ fn main() {
         .unwrap_or(5);
     let (v, t) = head_and_shoulders(96);
     let bvh = Bvh::new(&v, &t).expect("valid mesh");
-    let mut rng = SplitMix(17);
+    let mut rng = SplitMix::new(17);
     let pts: Vec<Ssv> = (0..20_000)
         .map(|_| {
             let off = rng.range(0.0, 0.04);

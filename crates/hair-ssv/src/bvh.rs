@@ -3,26 +3,12 @@
 //!
 //! Points (a body's signed distance, its distance field's samples) search a second tree made
 //! from the same one: its levels collapsed so that each node holds four children's boxes side by
-//! side and each leaf four triangles' vertices, measured four at a time. On 20,000 points 0 to
-//! 40 mm off the 53,000-triangle head (`examples/point_profile.rs`, callgrind), one query took
-//! 27,300 instructions on the binary tree of boxes and takes 16,600, with the same answers.
-//!
-//! On a processor with AVX the point search runs compiled for it, with the exact test's `f64`
-//! plane tests in AVX registers: the `wide` crate picks its instructions when it is compiled, for
-//! the baseline target, so its four `f64` lanes took two SSE2 instructions each, also inside a
-//! function compiled for AVX. The same answers (the `point_profile` hash). Callgrind on
-//! `point_profile` 1 and 3 with the compiler and code of the time (the figure above is older):
-//! 19,600 instructions per query before, 13,100 after. In time, 3.26-3.52 us against
-//! 3.50-3.58 us per query (fastest of 10, four alternated rounds on a busy 2-core machine): the
-//! search waits on memory more than on arithmetic.
-//!
-//! Measured and dropped: the search bounded from the start by the distance to a hint, the
-//! triangle of the same thread's last answer (a thread's queries come along a strand or over a
-//! field cell). Only the bound came from the hint, so the answers were the same (a property
-//! test checked it, down to the triangle kept among equally near ones), but `wardlin` with
-//! `collision.method: Bvh` spent 15.2-16.8 ms a frame in the hair-object stage either way, and
-//! `strands10k`'s first frames (where its distance field fills) did not change: for points near
-//! the surface, the nearest-first search already finds a close triangle at once.
+//! side and each leaf four triangles' vertices, measured four at a time, which takes fewer
+//! instructions per query than the binary tree of boxes, with the same answers. On a processor
+//! with AVX the point search runs compiled for it, so that the exact test's `f64` plane tests
+//! fill AVX registers: the `wide` crate picks its instructions when it is compiled, for the
+//! baseline target, and its four `f64` lanes would otherwise take two SSE2 instructions each.
+//! What these cost and what was tried instead: `docs/perf/ssv.md`.
 
 use rayon::prelude::*;
 
@@ -377,7 +363,13 @@ impl Bvh {
     ///
     /// On a processor with AVX the whole search runs compiled for it, so that the exact test's
     /// `f64` plane tests take one instruction per four lanes instead of two (the same values).
-    #[allow(unsafe_code)]
+    #[cfg_attr(
+        target_arch = "x86_64",
+        expect(
+            unsafe_code,
+            reason = "calls the search compiled for AVX; sound: only after the processor was found to have AVX"
+        )
+    )]
     fn closest_to_point(&self, p: &Point, radius: Real) -> Option<MeshClosest> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx") {

@@ -56,7 +56,16 @@ impl Contact {
     }
 }
 
-/// A unit vector perpendicular to `v` (any one; `+z` when `v` is zero).
+/// A unit vector perpendicular to `v`: `v` crossed with the coordinate axis it is least aligned
+/// with, normalised; `+z` when `v` is zero or NaN.
+///
+/// ```
+/// use hair_ssv::{Vector, any_perpendicular};
+/// let v = Vector::new(0.3, -2.0, 0.5);
+/// let p = any_perpendicular(&v);
+/// assert!(p.dot(&v).abs() < 1e-6 && (p.norm() - 1.0).abs() < 1e-6);
+/// assert_eq!(any_perpendicular(&Vector::zeros()), Vector::z());
+/// ```
 #[inline]
 pub fn any_perpendicular(v: &Vector) -> Vector {
     let candidate = if v.x.abs() <= v.y.abs() && v.x.abs() <= v.z.abs() {

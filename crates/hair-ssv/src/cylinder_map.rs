@@ -63,40 +63,17 @@ impl CylinderMap {
             )));
         }
         let dv = (h1 - h0) / (n - 1) as Real;
-        let mut radius = Vec::with_capacity(m * n);
-        let mut normal = Vec::with_capacity(m * n);
-        for j in 0..n {
-            let c = frame.origin + frame.axis * (h0 + dv * j as Real);
-            for i in 0..m {
-                let dir = frame.radial(std::f32::consts::TAU * i as Real / m as Real);
-                let start = c + dir * config.max_radius;
-                match bvh.cast_ray(&start, &-dir, config.max_radius) {
-                    Some(hit) => {
-                        radius.push(config.max_radius - hit.t);
-                        normal.push(if hit.normal.dot(&dir) >= 0.0 {
-                            hit.normal
-                        } else {
-                            -hit.normal
-                        });
-                    }
-                    None => {
-                        radius.push(0.0);
-                        normal.push(dir);
-                    }
-                }
-            }
-        }
+        let grid = Grid::cast(bvh, (m, n), (h0, dv), config.max_radius, |i, j| {
+            let centre = frame.origin + frame.axis * (h0 + dv * j as Real);
+            (
+                centre,
+                frame.radial(std::f32::consts::TAU * i as Real / m as Real),
+            )
+        });
         Ok(Self {
             frame,
             heights: (h0, h1),
-            grid: Grid {
-                m,
-                n,
-                v0: h0,
-                dv,
-                radius,
-                normal,
-            },
+            grid,
         })
     }
 

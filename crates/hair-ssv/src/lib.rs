@@ -10,6 +10,9 @@
 //! | [`fit_lss`], [`fit_rss`], [`fit_rss_triangles`] | tight volumes around point and triangle sets |
 //! | [`Bvh`] | RSS hierarchy over a triangle mesh (points search a four-wide tree of its boxes, with four triangles per exact test): closest triangle, contacts within a margin, rayon batches, ray casts |
 //! | [`CylinderMap`], [`SphereMap`], [`Body`] | Kurihara's collision tables: bilinear lookup, inside test, nearest surface point |
+//! | [`head`] | the procedural head and shoulders (mesh and collision tables), with its dimensions |
+//! | [`any_perpendicular`] | a unit vector perpendicular to any vector, zero included |
+//! | `test_meshes` (feature `test-support`) | a seeded generator and samplers for tests and benches |
 //! | [`SsvError`] | the one error type |
 //!
 //! ```
@@ -41,13 +44,14 @@ mod distance_batch;
 mod distance_field;
 mod error;
 pub mod fit;
+pub mod head;
 mod mesh_body;
 pub mod query;
 mod ray;
 mod shape;
 mod sphere_map;
 mod surface_map;
-#[doc(hidden)]
+#[cfg(feature = "test-support")]
 pub mod test_meshes;
 
 pub use body::{Body, BodyPart, PartMap};

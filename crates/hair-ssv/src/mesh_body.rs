@@ -551,10 +551,11 @@ pub fn wrinkled_torus(
 mod tests {
     use super::*;
     use crate::distance_field::UNKNOWN;
-    use crate::test_meshes::{HEAD, SHOULDERS, SplitMix, head_and_shoulders};
+    use crate::head::{HEAD, SHOULDERS, head_and_shoulders};
+    use crate::test_meshes::SplitMix;
     use std::sync::atomic::{AtomicU32, Ordering};
 
-    const NECK: Real = crate::test_meshes::NECK_RADIUS;
+    const NECK: Real = crate::head::NECK_RADIUS;
 
     /// The procedural head and shoulders at `resolution`, as a body.
     fn head(resolution: usize) -> MeshBody {
@@ -604,7 +605,7 @@ mod tests {
     #[test]
     fn head_body_signed_distance_has_the_right_side_everywhere() {
         let body = head(64);
-        let mut rng = SplitMix(7);
+        let mut rng = SplitMix::new(7);
         let (mut inside, mut outside) = (0, 0);
         while inside < 3000 || outside < 3000 {
             let p = Point::new(
@@ -727,7 +728,7 @@ mod tests {
     #[test]
     fn pseudo_normals_decide_the_side_as_the_faces_do() {
         let (head, torus) = closed_test_bodies();
-        let mut rng = SplitMix(11);
+        let mut rng = SplitMix::new(11);
         for body in [&head, &torus] {
             let normals = body
                 .pseudo_normals
@@ -788,7 +789,7 @@ mod tests {
         assert!(head.closed);
         assert!(torus.closed);
         assert!(!is_closed(&head.triangles[1..]));
-        let mut rng = SplitMix(3);
+        let mut rng = SplitMix::new(3);
         let mut skipped = 0;
         for body in [&head, &torus] {
             for _ in 0..4000 {
@@ -853,7 +854,7 @@ mod tests {
         assert!(is_closed(&t));
         let bvh = Bvh::new(&v, &t).unwrap();
         let normals = PseudoNormals::new(&v, &t).expect("capped");
-        let mut rng = SplitMix(3);
+        let mut rng = SplitMix::new(3);
         for _ in 0..2000 {
             let p = Point::new(
                 rng.range(-0.5, 1.5),

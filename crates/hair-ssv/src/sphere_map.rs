@@ -59,41 +59,16 @@ impl SphereMap {
             )));
         }
         let dv = mp / (n - 1) as Real;
-        let mut radius = Vec::with_capacity(m * n);
-        let mut normal = Vec::with_capacity(m * n);
-        for j in 0..n {
+        let grid = Grid::cast(bvh, (m, n), (0.0, dv), config.max_radius, |i, j| {
             let (sp, cp) = (dv * j as Real).sin_cos();
-            for i in 0..m {
-                let dir = frame.radial(std::f32::consts::TAU * i as Real / m as Real) * sp
-                    + frame.axis * cp;
-                let start = frame.origin + dir * config.max_radius;
-                match bvh.cast_ray(&start, &-dir, config.max_radius) {
-                    Some(hit) => {
-                        radius.push(config.max_radius - hit.t);
-                        normal.push(if hit.normal.dot(&dir) >= 0.0 {
-                            hit.normal
-                        } else {
-                            -hit.normal
-                        });
-                    }
-                    None => {
-                        radius.push(0.0);
-                        normal.push(dir);
-                    }
-                }
-            }
-        }
+            let dir =
+                frame.radial(std::f32::consts::TAU * i as Real / m as Real) * sp + frame.axis * cp;
+            (frame.origin, dir)
+        });
         Ok(Self {
             frame,
             max_polar: mp,
-            grid: Grid {
-                m,
-                n,
-                v0: 0.0,
-                dv,
-                radius,
-                normal,
-            },
+            grid,
         })
     }
 

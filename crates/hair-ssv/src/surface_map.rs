@@ -2,7 +2,7 @@
 //! lookup, and the bilinear interpolation of eq. 8-10.
 
 use crate::contact::try_unit;
-use crate::{Point, Real, SsvError, Vector};
+use crate::{Bvh, Point, Real, SsvError, Vector};
 
 /// An orthonormal frame for a map: origin, axis ("up" of a cylinder, pole of a sphere) and the
 /// reference direction of azimuth zero.
@@ -90,6 +90,50 @@ pub(crate) struct Grid {
 }
 
 impl Grid {
+    /// Samples a body part by casting one ray per node, row by row: node `(i, j)` (azimuth `i`
+    /// of `m`, row `j` of `n`, rows at `v0 + j dv`) casts from `centre + dir * max_radius`
+    /// toward `centre`, with `(centre, dir) = ray(i, j)` and `dir` the unit direction outward.
+    /// The node records how far out from `centre` the outermost surface lies, with its normal
+    /// turned outward; where the ray misses, radius 0 (nothing there) and normal `dir`.
+    pub(crate) fn cast(
+        bvh: &Bvh,
+        (m, n): (usize, usize),
+        (v0, dv): (Real, Real),
+        max_radius: Real,
+        ray: impl Fn(usize, usize) -> (Point, Vector),
+    ) -> Self {
+        let mut radius = Vec::with_capacity(m * n);
+        let mut normal = Vec::with_capacity(m * n);
+        for j in 0..n {
+            for i in 0..m {
+                let (centre, dir) = ray(i, j);
+                let start = centre + dir * max_radius;
+                match bvh.cast_ray(&start, &-dir, max_radius) {
+                    Some(hit) => {
+                        radius.push(max_radius - hit.t);
+                        normal.push(if hit.normal.dot(&dir) >= 0.0 {
+                            hit.normal
+                        } else {
+                            -hit.normal
+                        });
+                    }
+                    None => {
+                        radius.push(0.0);
+                        normal.push(dir);
+                    }
+                }
+            }
+        }
+        Self {
+            m,
+            n,
+            v0,
+            dv,
+            radius,
+            normal,
+        }
+    }
+
     /// Bilinear interpolation (eq. 8-10) at azimuth `theta` (radians, any range) and second
     /// coordinate `v` (clamped to the grid): radius and normalised normal.
     #[inline]

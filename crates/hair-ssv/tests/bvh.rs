@@ -156,9 +156,9 @@ proptest! {
 
 #[test]
 fn head_mesh_contacts_equal_brute_force() {
-    let (v, t) = hair_ssv::test_meshes::head_and_shoulders(24);
+    let (v, t) = hair_ssv::head::head_and_shoulders(24);
     let bvh = Bvh::new(&v, &t).unwrap();
-    let mut rng = hair_ssv::test_meshes::SplitMix(7);
+    let mut rng = hair_ssv::test_meshes::SplitMix::new(7);
     for _ in 0..200 {
         let off = rng.range(-0.01, 0.01);
         let (p, _) = rng.surface_point(bvh.triangles(), off);
@@ -209,7 +209,7 @@ fn bad_meshes_give_typed_errors() {
 /// rather than a NaN distance.
 #[test]
 fn non_finite_points_have_no_closest_triangle() {
-    let (v, t) = hair_ssv::test_meshes::head_and_shoulders(24);
+    let (v, t) = hair_ssv::head::head_and_shoulders(24);
     let bvh = Bvh::new(&v, &t).expect("valid mesh");
     for bad in [Real::NAN, Real::INFINITY, Real::NEG_INFINITY] {
         for axis in 0..3 {

@@ -1,7 +1,8 @@
 //! Cylinder and sphere maps (Kurihara et al. 1993 §3.1) on shapes with known answers, and their
 //! error against the exact BVH distance on the head-and-shoulders mesh.
 
-use hair_ssv::test_meshes::{SplitMix, head_and_shoulders, head_and_shoulders_body};
+use hair_ssv::head::{head_and_shoulders, head_and_shoulders_body};
+use hair_ssv::test_meshes::SplitMix;
 use hair_ssv::{
     Bvh, CylinderMap, CylinderMapConfig, MapFrame, Point, Pss, Real, SphereMap, SphereMapConfig,
     Ssv, SsvError, SurfaceMap, Vector,
@@ -53,7 +54,7 @@ fn cylinder_map_of_a_sphere() {
         },
     )
     .unwrap();
-    let mut rng = SplitMix(1);
+    let mut rng = SplitMix::new(1);
     for _ in 0..2000 {
         let h = rng.range(-0.06, 0.06);
         let th = rng.range(-4.0, 4.0);
@@ -140,12 +141,12 @@ fn body_map_error_against_the_exact_mesh_distance() {
     let (v, t) = head_and_shoulders(32);
     let bvh = Bvh::new(&v, &t).unwrap();
     let body = head_and_shoulders_body(&bvh, 64).unwrap();
-    let mut rng = SplitMix(3);
+    let mut rng = SplitMix::new(3);
     let mut errs = Vec::new();
     for _ in 0..2000 {
         let off = rng.range(-0.005, 0.01);
         let (p, _) = rng.surface_point(bvh.triangles(), off);
-        if hair_ssv::test_meshes::inside_neck(&p) {
+        if hair_ssv::head::inside_neck(&p) {
             continue;
         }
         let Some(s) = body.lookup(&p) else { continue };

@@ -14,6 +14,7 @@ use hair::dynamics::{
     DynamicsError, Environment, Integrator, LinearSolver, Point, Real, StepSettings, StrandState,
     TorqueModel, Vector,
 };
+use hair_ssv::test_meshes::SplitMix;
 use nalgebra::{Rotation3, Unit};
 use serde_json::{Map, Value, json};
 
@@ -215,26 +216,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// SplitMix64 for the seeded release directions.
-fn splitmix(state: &mut u64) -> f32 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
-}
-
 /// `count` standard strands on a 1 cm grid, each released 60 degrees from straight down towards a
 /// seeded azimuth.
 fn build(count: usize, k: f64) -> anyhow::Result<StrandState> {
     let mut state = StrandState::new();
     let side = (count as f64).sqrt().ceil() as usize;
-    let mut seed = 7u64;
+    // Seeded release directions.
+    let mut rng = SplitMix::new(7);
     let tilt = strand_setup::RELEASE_DEG.to_radians();
     for s in 0..count {
         let root = Point::new((s % side) as Real * 0.01, 0.0, (s / side) as Real * 0.01);
-        let azimuth = core::f32::consts::TAU * splitmix(&mut seed);
+        let azimuth = core::f32::consts::TAU * rng.unit();
         let dir = Vector::new(
             tilt.sin() * azimuth.cos(),
             -tilt.cos(),

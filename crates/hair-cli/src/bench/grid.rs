@@ -3,9 +3,9 @@
 
 use std::time::Instant;
 
-use hair::grid::test_scenes::head_shell;
-use hair::grid::{Grid, GridConfig, PairSet, Section};
 use hair::ssv::Point;
+use hair_grid::test_scenes::head_shell;
+use hair_grid::{Grid, GridConfig, Kernel, PairSet, Section};
 use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vec3;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy, BvhWorkspace};
@@ -129,14 +129,22 @@ fn brute_force(grid: &Grid, sections: &[Section]) -> Vec<[u32; 2]> {
         .collect()
 }
 
-/// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+/// Runs the benchmark with `kernel` (one the processor lacks runs the widest narrower one, and
+/// the output names the kernel that ran).
+pub fn run(args: Args, kernel: Kernel) -> anyhow::Result<()> {
     let sections = head_shell(args.segments, args.per_strand, args.seed);
     let config = GridConfig {
         cell_size: (args.cell_size > 0.0).then_some(args.cell_size),
+        kernel,
         ..GridConfig::default()
     };
     let mut grid = Grid::new(config.clone());
+    if kernel != Kernel::Auto && grid.kernel() != kernel {
+        eprintln!(
+            "note: this processor cannot run the {kernel} kernel; running {}",
+            grid.kernel()
+        );
+    }
     let mut pairs = PairSet::new();
     // Warm-up: buffers grow to the scene.
     grid.rebuild(&sections)?;
@@ -224,7 +232,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let v = serde_json::json!({
             "segments": sections.len(),
             "threads": threads,
-            "kernel": hair::grid::kernel_name(),
+            "kernel": grid.kernel().name(),
             "cell_size_m": grid.cell_size(),
             "cells": grid.cell_count(),
             "entries": grid.entry_count(),
@@ -254,7 +262,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "grid: {} segments, {} threads, {} kernels, cell {:.4} m, {} cells, {} entries",
             sections.len(),
             threads,
-            hair::grid::kernel_name(),
+            grid.kernel(),
             grid.cell_size(),
             grid.cell_count(),
             grid.entry_count()

@@ -24,12 +24,12 @@ enum Suite {
     Render(render::Args),
 }
 
-/// Runs the chosen suite.
-pub fn run(args: Args) -> anyhow::Result<()> {
+/// Runs the chosen suite; the grid suite with `grid_kernel`.
+pub fn run(args: Args, grid_kernel: hair_grid::Kernel) -> anyhow::Result<()> {
     match args.suite {
         Suite::Dynamics(a) => dynamics::run(a),
         Suite::Ssv(a) => ssv::run(a),
-        Suite::Grid(a) => grid::run(a),
+        Suite::Grid(a) => grid::run(a, grid_kernel),
         Suite::Render(a) => render::run(a),
     }
 }

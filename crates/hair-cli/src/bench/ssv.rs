@@ -9,11 +9,12 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use hair::ssv::test_meshes::{SplitMix, head_and_shoulders, head_and_shoulders_body, inside_neck};
+use hair::ssv::head::{head_and_shoulders, head_and_shoulders_body, inside_neck};
 use hair::ssv::{
     Bvh, Lss, MeshContact, Point, Pss, Real, Rss, Ssv, SurfaceMap, Vector, distance_lss_lss,
     distance_lss_lss_batch, distance_rss_rss,
 };
+use hair_ssv::test_meshes::SplitMix;
 
 /// Arguments of `hair bench ssv`.
 #[derive(Debug, clap::Args)]
@@ -602,7 +603,7 @@ fn bench_cylinder_map(args: &Args, rng: &mut SplitMix, bvh: &Bvh) -> anyhow::Res
 
 /// Runs the suite.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let mut rng = SplitMix(0x05ee_d55f);
+    let mut rng = SplitMix::new(0x05ee_d55f);
     let (vertices, triangles) = head_and_shoulders(args.resolution);
     let t0 = Instant::now();
     let bvh = Bvh::new(&vertices, &triangles)?;

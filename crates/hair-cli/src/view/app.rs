@@ -871,7 +871,7 @@ fn lod_counts(sim: &hair::Simulation) -> LodCounts {
 /// bounds of the hair's roots.
 fn head_sphere(sim: &hair::Simulation) -> HeadSphere {
     if let hair::scene::BodySpec::Head { .. } = sim.scene().body {
-        let (c, axes) = hair::ssv::test_meshes::HEAD;
+        let (c, axes) = hair::ssv::head::HEAD;
         return HeadSphere {
             centre: Point::from(c),
             radius: axes.iter().copied().fold(0.0, Real::max),

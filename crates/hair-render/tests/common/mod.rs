@@ -1,10 +1,13 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
-use hair_render::{GpuRenderer, RgbaImage, compare, save_png};
+#[cfg(feature = "gpu")]
+use hair_render::GpuRenderer;
+use hair_render::{RgbaImage, compare, save_png};
 
 /// The GPU renderer, or `None` (with a note) when there is no adapter; under
 /// `HAIR_REQUIRE_GPU=1` a missing adapter fails the test.
+#[cfg(feature = "gpu")]
 pub fn gpu(test: &str) -> Option<GpuRenderer> {
     match GpuRenderer::new() {
         Ok(g) => Some(g),

@@ -146,7 +146,13 @@ fn point_segment4(p: &V4, a: &V4, b: &V4) -> (V4, f32x4) {
 /// plane tests run in AVX registers, four lanes per instruction instead of two, with the same
 /// operations in the same order, so the same values.
 #[inline(always)]
-#[allow(unsafe_code)]
+#[cfg_attr(
+    target_arch = "x86_64",
+    expect(
+        unsafe_code,
+        reason = "calls the AVX plane tests; sound: `AVX` is true only inside the point search compiled for AVX, run only where the processor has it"
+    )
+)]
 pub(crate) fn point_triangle_lanes_in<const AVX: bool>(
     p: &Point,
     t: &TriLanes,
@@ -219,7 +225,10 @@ fn plane_lanes(p: &Point, t: &TriLanes) -> (V4, f32x4) {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 #[inline]
-#[allow(unsafe_code)]
+#[expect(
+    unsafe_code,
+    reason = "unaligned loads and stores of four floats; sound: each lies inside a four-float array"
+)]
 fn plane_lanes_avx(p: &Point, t: &TriLanes) -> (V4, f32x4) {
     use std::arch::x86_64::{
         __m256d, _CMP_GE_OQ, _CMP_GT_OQ, _mm_loadu_ps, _mm_storeu_ps, _mm256_add_pd, _mm256_and_pd,
@@ -336,7 +345,10 @@ mod tests {
             let (on_b, dist_sq) = point_triangle_lanes_in::<false>(&p, &lanes);
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx") {
-                #[allow(unsafe_code)]
+                #[expect(
+                    unsafe_code,
+                    reason = "calls a function compiled for AVX; sound: only after AVX was found"
+                )]
                 // SAFETY: AVX was found above.
                 let avx = unsafe { lanes_avx(&p, &lanes) };
                 prop_assert_eq!(avx.0.map(|c| c.map(f32::to_bits)), on_b.map(|c| c.map(f32::to_bits)));
