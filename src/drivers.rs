@@ -56,19 +56,12 @@ pub fn camera(spec: &CameraSpec, t: Real) -> (Point, Point) {
 
 /// The environment of the step that starts at time `t`: gravity, the head's motion, the wind.
 pub fn environment(scene: &Scene, t: Real) -> Environment {
-    let w = &scene.wind;
     Environment {
         gravity: Vector::from(scene.dynamics.gravity),
         head: head_motion(&scene.head_motion, t),
         wind: Wind {
-            direction: Vector::from(w.direction),
-            speed: w.speed,
-            gust: w.gust,
-            gust_frequency: w.gust_frequency,
-            turbulence: w.turbulence,
-            turbulence_scale: w.turbulence_scale,
-            drag: w.drag,
             seed: scene.seed,
+            ..scene.wind
         },
         fields: Vec::new(),
         time: t,

@@ -42,7 +42,7 @@ pub struct Scene {
     /// Light.
     pub light: LightSpec,
     /// Wind.
-    pub wind: WindSpec,
+    pub wind: Wind,
     /// The head's motion.
     pub head_motion: HeadMotionSpec,
     /// The salon tool script: a timeline of tool events and the tools' settings
@@ -68,7 +68,7 @@ impl Default for Scene {
             localization: false,
             camera: CameraSpec::default(),
             light: LightSpec::default(),
-            wind: WindSpec::default(),
+            wind: Wind::default(),
             head_motion: HeadMotionSpec::Still,
             tools: hair_salon::ToolScript::default(),
         }
@@ -282,9 +282,9 @@ pub enum StyleSpec {
 #[serde(deny_unknown_fields, default)]
 pub struct DynamicsSpec {
     /// Integrator: `ExplicitEuler`, `SymplecticEuler`, `Rk4`, `ImplicitAngular`, `ImplicitCoupled`.
-    pub integrator: IntegratorSpec,
+    pub integrator: Integrator,
     /// Torque model: `Chain` or `Local`.
-    pub torque: TorqueSpec,
+    pub torque: TorqueModel,
     /// Mass per unit length of one skeleton (kg/m).
     pub linear_density: f32,
     /// Bending stiffness EI at the root (N m^2).
@@ -304,8 +304,8 @@ pub struct DynamicsSpec {
 impl Default for DynamicsSpec {
     fn default() -> Self {
         Self {
-            integrator: IntegratorSpec::ImplicitCoupled,
-            torque: TorqueSpec::Chain,
+            integrator: Integrator::ImplicitCoupled,
+            torque: TorqueModel::Chain,
             linear_density: 0.01,
             bending_stiffness: 2e-6,
             tip_stiffness_ratio: 0.3,
@@ -323,42 +323,15 @@ impl DynamicsSpec {
     pub fn step_settings(&self, frame_rate: f32, substeps: u32) -> hair_dynamics::StepSettings {
         hair_dynamics::StepSettings {
             dt: 1.0 / (frame_rate * substeps as f32),
-            integrator: match self.integrator {
-                IntegratorSpec::ExplicitEuler => hair_dynamics::Integrator::ExplicitEuler,
-                IntegratorSpec::SymplecticEuler => hair_dynamics::Integrator::SymplecticEuler,
-                IntegratorSpec::Rk4 => hair_dynamics::Integrator::Rk4,
-                IntegratorSpec::ImplicitAngular => hair_dynamics::Integrator::ImplicitAngular,
-                IntegratorSpec::ImplicitCoupled => hair_dynamics::Integrator::ImplicitCoupled,
-            },
-            torque: match self.torque {
-                TorqueSpec::Chain => hair_dynamics::TorqueModel::Chain,
-                TorqueSpec::Local => hair_dynamics::TorqueModel::Local,
-            },
+            integrator: self.integrator,
+            torque: self.torque,
             solver: hair_dynamics::LinearSolver::Structured,
         }
     }
 }
 
-/// Integrators, by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[allow(missing_docs)]
-pub enum IntegratorSpec {
-    ExplicitEuler,
-    SymplecticEuler,
-    Rk4,
-    ImplicitAngular,
-    ImplicitCoupled,
-}
-
-/// Torque models, by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[allow(missing_docs)]
-pub enum TorqueSpec {
-    Local,
-    Chain,
-}
-
 pub use hair_collide::{CollisionSettings, PushCombine};
+pub use hair_dynamics::{Integrator, TorqueModel, Wind};
 pub use hair_ssv::CollisionMethod;
 
 /// Level-of-detail policies.
@@ -453,40 +426,6 @@ impl Default for LightSpec {
         Self {
             direction: [-0.3, -0.8, -0.5],
             color: [1.0, 1.0, 1.0],
-        }
-    }
-}
-
-/// Wind (see `hair_dynamics::Wind`).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct WindSpec {
-    /// Mean flow direction (world).
-    pub direction: [f32; 3],
-    /// Mean speed (m/s).
-    pub speed: f32,
-    /// Gust amplitude (fraction of the speed).
-    pub gust: f32,
-    /// Gust frequency (Hz).
-    pub gust_frequency: f32,
-    /// Turbulence amplitude (fraction of the speed).
-    pub turbulence: f32,
-    /// Turbulence length scale (m).
-    pub turbulence_scale: f32,
-    /// Linear drag coefficient (N s / m^2).
-    pub drag: f32,
-}
-
-impl Default for WindSpec {
-    fn default() -> Self {
-        Self {
-            direction: [0.0, 0.0, -1.0],
-            speed: 0.0,
-            gust: 0.0,
-            gust_frequency: 0.5,
-            turbulence: 0.0,
-            turbulence_scale: 0.1,
-            drag: 0.0,
         }
     }
 }
@@ -732,7 +671,7 @@ impl Scene {
         finite("light.direction", &self.light.direction)?;
         finite("light.color", &self.light.color)?;
         let w = &self.wind;
-        finite("wind.direction", &w.direction)?;
+        finite("wind.direction", w.direction.as_slice())?;
         for (f, v) in [
             ("wind.speed", w.speed),
             ("wind.gust", w.gust),

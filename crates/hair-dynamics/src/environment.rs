@@ -47,8 +47,15 @@ impl Default for HeadMotion {
 /// on the component of the air's velocity relative to the segment that is normal to the segment:
 /// `F = drag * length * (u - (u . t) t)` (linear drag, N per m of segment per m/s).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
 pub struct Wind {
-    /// Mean flow direction (normalised on use; zero means no mean flow).
+    /// Mean flow direction (normalised on use; zero means no mean flow). Default `-z`: toward
+    /// the face of a head that looks along `+z`.
+    #[cfg_attr(feature = "serde", serde(with = "vector_as_array"))]
     pub direction: Vector,
     /// Mean speed (m/s).
     pub speed: Real,
@@ -62,14 +69,30 @@ pub struct Wind {
     pub turbulence_scale: Real,
     /// Linear drag coefficient (N s / m^2: force per metre of segment per m/s of normal flow).
     pub drag: Real,
-    /// Seed of the turbulence phases.
+    /// Seed of the turbulence phases (a scene file leaves it to the scene's own seed).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub seed: u64,
+}
+
+/// A vector as the three numbers `(x, y, z)` in a serialized file.
+#[cfg(feature = "serde")]
+mod vector_as_array {
+    use crate::Vector;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Vector, s: S) -> Result<S::Ok, S::Error> {
+        [v.x, v.y, v.z].serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vector, D::Error> {
+        <[f32; 3]>::deserialize(d).map(Vector::from)
+    }
 }
 
 impl Default for Wind {
     fn default() -> Self {
         Self {
-            direction: Vector::z(),
+            direction: -Vector::z(),
             speed: 0.0,
             gust: 0.0,
             gust_frequency: 0.5,

@@ -21,6 +21,7 @@ pub use implicit_coupled::LinearSolver;
 
 /// Which integrator advances the angles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum Integrator {
     /// Forward Euler: angles and velocities from the state at the start of the step.
@@ -68,6 +69,7 @@ impl Integrator {
 
 /// Which load a joint's torque sees.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum TorqueModel {
     /// Each segment bears only its own node's load (Kurihara et al., Ward & Lin).
     Local,
