@@ -453,30 +453,9 @@ fn mean_frame(z: Vector3<f64>, x: Vector3<f64>) -> Rotation3<Real> {
 fn resample(points: &[Point], n: usize, out: &mut Vec<Vector3<f64>>) {
     if points.len() == n {
         out.extend(points.iter().map(|p| to64(&p.coords)));
-        return;
-    }
-    let mut arc = Vec::with_capacity(points.len());
-    let mut total = 0.0;
-    arc.push(0.0);
-    for w in points.windows(2) {
-        total += f64::from((w[1] - w[0]).norm());
-        arc.push(total);
-    }
-    let mut j = 0;
-    for i in 0..n {
-        let target = total * i as f64 / (n - 1) as f64;
-        while j + 2 < points.len() && arc[j + 1] < target {
-            j += 1;
-        }
-        let (a0, a1) = (arc[j], arc[j + 1]);
-        let t = if a1 > a0 {
-            ((target - a0) / (a1 - a0)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let p0 = to64(&points[j].coords);
-        let p1 = to64(&points[j + 1].coords);
-        out.push(p0 + (p1 - p0) * t);
+    } else {
+        let even = hair_dynamics::resample_polyline(points, n);
+        out.extend(even.iter().map(|p| to64(&p.coords)));
     }
 }
 

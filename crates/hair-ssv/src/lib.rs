@@ -48,6 +48,7 @@ pub mod head;
 mod mesh_body;
 pub mod query;
 mod ray;
+pub mod scalp;
 mod shape;
 mod sphere_map;
 mod surface_map;
