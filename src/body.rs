@@ -66,35 +66,3 @@ pub fn from_spec(spec: &BodySpec, base_dir: &Path) -> Result<Option<MeshBody>, H
     }
     Ok(Some(body))
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// An OBJ body with a degenerate triangle is an error naming the file and the triangle.
-    #[test]
-    fn a_degenerate_obj_names_its_file_and_triangle() {
-        let dir = std::env::temp_dir().join(format!("hair-body-obj-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
-        std::fs::write(dir.join("tet.obj"), tet).unwrap();
-        // The fourth face repeats an edge's vertex: zero area.
-        std::fs::write(dir.join("flat.obj"), tet.replace("f 2 3 4", "f 2 3 3")).unwrap();
-        let spec = |path: &str| BodySpec::Obj {
-            path: path.into(),
-            scale: 0.1,
-            offset: [0.0; 3],
-            close_holes: false,
-        };
-        assert!(from_spec(&spec("tet.obj"), &dir).unwrap().is_some());
-        match from_spec(&spec("flat.obj"), &dir) {
-            Err(HairError::BodyMesh {
-                file,
-                source: hair_ssv::SsvError::DegenerateTriangle { triangle: 3, .. },
-                ..
-            }) => assert!(file.ends_with("flat.obj"), "{file}"),
-            other => panic!("expected a BodyMesh error, got {:?}", other.err()),
-        }
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-}

@@ -36,6 +36,8 @@ pub mod drivers;
 mod error;
 pub mod hairstyle;
 mod lod_stage;
+#[cfg(feature = "render")]
+pub mod render;
 mod render_geometry;
 pub mod scene;
 mod simulation;

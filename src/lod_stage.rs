@@ -4,10 +4,53 @@
 
 use crate::HairError;
 use crate::drivers;
-use crate::scene::{LodPolicy, Scene};
+use crate::scene::Scene;
 use hair_dynamics::{SkeletonId, StrandState};
 use hair_lod::{AdaptiveLod, BodyDepth, Hierarchy, NodeKind, OccluderMesh, TransitionReport, View};
 use hair_ssv::{MeshBody, Point, Real, Vector};
+use serde::{Deserialize, Serialize};
+
+/// Level-of-detail policies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LodPolicy {
+    /// The finest skeletons everywhere.
+    Fine,
+    /// Chosen per node from visibility, distance and motion.
+    Adaptive,
+    /// Coarse strand groups everywhere.
+    CoarseStrands,
+    /// Clusters everywhere.
+    Clusters,
+    /// Strips everywhere.
+    Strips,
+}
+
+impl LodPolicy {
+    /// Every policy, finest first.
+    pub const ALL: [LodPolicy; 5] = [
+        LodPolicy::Fine,
+        LodPolicy::Adaptive,
+        LodPolicy::CoarseStrands,
+        LodPolicy::Clusters,
+        LodPolicy::Strips,
+    ];
+
+    /// The CLI name (`fine`, `adaptive`, `coarse-strands`, `clusters`, `strips`).
+    pub fn name(self) -> &'static str {
+        match self {
+            LodPolicy::Fine => "fine",
+            LodPolicy::Adaptive => "adaptive",
+            LodPolicy::CoarseStrands => "coarse-strands",
+            LodPolicy::Clusters => "clusters",
+            LodPolicy::Strips => "strips",
+        }
+    }
+
+    /// Parses a CLI name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
 
 /// The LOD stage's state: the adaptive policy (if chosen), its starting point for a reset, and
 /// the body's depth image from the camera (drawn again only when the view changes).

@@ -334,47 +334,7 @@ pub use hair_collide::{CollisionSettings, PushCombine};
 pub use hair_dynamics::{Integrator, TorqueModel, Wind};
 pub use hair_ssv::CollisionMethod;
 
-/// Level-of-detail policies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum LodPolicy {
-    /// The finest skeletons everywhere.
-    Fine,
-    /// Chosen per node from visibility, distance and motion.
-    Adaptive,
-    /// Coarse strand groups everywhere.
-    CoarseStrands,
-    /// Clusters everywhere.
-    Clusters,
-    /// Strips everywhere.
-    Strips,
-}
-
-impl LodPolicy {
-    /// Every policy, finest first.
-    pub const ALL: [LodPolicy; 5] = [
-        LodPolicy::Fine,
-        LodPolicy::Adaptive,
-        LodPolicy::CoarseStrands,
-        LodPolicy::Clusters,
-        LodPolicy::Strips,
-    ];
-
-    /// The CLI name (`fine`, `adaptive`, `coarse-strands`, `clusters`, `strips`).
-    pub fn name(self) -> &'static str {
-        match self {
-            LodPolicy::Fine => "fine",
-            LodPolicy::Adaptive => "adaptive",
-            LodPolicy::CoarseStrands => "coarse-strands",
-            LodPolicy::Clusters => "clusters",
-            LodPolicy::Strips => "strips",
-        }
-    }
-
-    /// Parses a CLI name.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|p| p.name() == name)
-    }
-}
+pub use crate::lod_stage::LodPolicy;
 
 /// A camera path: keyframes interpolated linearly in time.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -629,29 +629,3 @@ fn skeletons(scene: &Scene, h: &Hierarchy) -> Result<(StrandState, Vec<Real>), H
 
 /// How deep inside the body [`Simulation::prefill_body_field`] computes samples (m).
 pub const PREFILL_INSIDE: Real = 0.01;
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The camera (the default: in front of the face) sees a point between it and the face, not
-    /// one behind the head or far to the side; a teleport carries what it sees with the head
-    /// (the camera keeps its place relative to the head path, as for the adaptive policy).
-    #[test]
-    fn the_camera_sees_in_front_of_the_head_and_follows_a_teleport() {
-        let scene = Scene::load("bristles").expect("built-in scene");
-        let mut sim = Simulation::new(&scene, LodPolicy::Fine).expect("scene builds");
-        let points = [
-            Point::new(0.0, 0.0, 0.3),
-            Point::new(0.0, 0.0, -0.3),
-            Point::new(1.0, 0.0, 0.5),
-            Point::new(2.0, 0.0, 0.3),
-        ];
-        let mut seen = Vec::new();
-        sim.seen_by_camera(&points, &mut seen);
-        assert_eq!(seen, [true, false, false, false]);
-        sim.teleport(Isometry3::translation(2.0, 0.0, 0.0));
-        sim.seen_by_camera(&points, &mut seen);
-        assert_eq!(seen, [false, false, false, true]);
-    }
-}

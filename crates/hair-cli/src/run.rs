@@ -309,65 +309,9 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The renderer's plain-data view of a simulation: camera, light, the body in world space and
-/// every rendered strand.
+/// The renderer's plain-data view of a simulation ([`hair::render::scene_of`]).
 pub fn render_scene(sim: &Simulation) -> hair_render::RenderScene {
-    use hair_render::{BodyMesh, Camera, Light, RenderScene, Strand, StrandPoint};
-    let scene = sim.scene();
-    let (eye, target) = hair::drivers::camera(&scene.camera, sim.time());
-    let head = hair::drivers::head_motion(&scene.head_motion, sim.time());
-    let to_world = |p: &hair::ssv::Point| head.position + head.rotation * p.coords;
-    let body = sim.body().map(|b| {
-        let positions: Vec<_> = b.vertices.iter().map(to_world).collect();
-        let mut normals = vec![hair::ssv::Vector::zeros(); positions.len()];
-        for t in &b.triangles {
-            let [a, bb, c] = t.map(|i| positions[i as usize]);
-            let n = (bb - a).cross(&(c - a));
-            for &i in t {
-                normals[i as usize] += n;
-            }
-        }
-        for n in &mut normals {
-            *n = n.try_normalize(1e-20).unwrap_or_else(hair::ssv::Vector::y);
-        }
-        BodyMesh {
-            positions,
-            normals,
-            triangles: b.triangles.clone(),
-            color: [0.78, 0.6, 0.5],
-        }
-    });
-    let radius = match &scene.hairstyle {
-        hair::scene::HairstyleSpec::Procedural(p) => p.strand_radius,
-        hair::scene::HairstyleSpec::File { .. } => 0.0015,
-    };
-    let geometry = sim.render_geometry();
-    let strands = (0..geometry.strand_count())
-        .map(|s| Strand {
-            points: geometry
-                .strand(s)
-                .iter()
-                .map(|p| StrandPoint::new(*p, radius, [0.35, 0.22, 0.12]))
-                .collect(),
-        })
-        .collect();
-    let d = hair::ssv::Vector::from(scene.light.direction);
-    RenderScene {
-        camera: Camera {
-            eye,
-            target,
-            fov_y: scene.camera.fov_degrees.to_radians(),
-            ..Camera::default()
-        },
-        light: Light {
-            direction: -d,
-            color: scene.light.color,
-            ..Light::default()
-        },
-        body,
-        strands,
-        ..RenderScene::default()
-    }
+    hair::render::scene_of(sim)
 }
 
 #[cfg(test)]

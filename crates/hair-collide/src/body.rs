@@ -3,7 +3,7 @@
 
 use crate::CollisionSettings;
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
-use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector};
+use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
 use rayon::prelude::*;
 
 /// What one application of the body constraint found.
@@ -537,13 +537,4 @@ struct BodyNode {
     prev: u32,
     skeleton: u32,
     radius: Real,
-}
-
-fn any_perpendicular(n: &Vector) -> Vector {
-    let a = if n.x.abs() < 0.9 {
-        Vector::x()
-    } else {
-        Vector::y()
-    };
-    n.cross(&a).normalize()
 }

@@ -394,18 +394,11 @@ mod tests {
     use hair_grid::GridConfig;
     use nalgebra::Rotation3;
 
-    /// `count` straight strands of 8 nodes rooted in a 4 cm box, each along its own direction
-    /// (a SplitMix64-like walk of the seed), so that many cross and some run parallel.
+    /// `count` straight strands of 8 nodes rooted in a 4 cm box, each along its own direction, so that many cross and some run parallel.
     fn tangle(count: usize, seed: u64) -> StrandState {
         let mut state = StrandState::new();
-        let mut x = seed;
-        let mut unit = move || {
-            x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = x;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 40) as Real / (1u64 << 24) as Real
-        };
+        let mut rng = hair_ssv::test_meshes::SplitMix::new(seed);
+        let mut unit = move || rng.unit();
         for _ in 0..count {
             let root = Point::new(unit() * 0.04, unit() * 0.04, unit() * 0.04);
             let axis = Vector::new(unit() - 0.5, unit() - 0.5, unit() - 0.5);

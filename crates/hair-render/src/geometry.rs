@@ -86,46 +86,26 @@ pub fn subdivide_catmull_rom(points: &[StrandPoint], subdivisions: u32) -> Vec<S
     if n < 2 || k == 1 {
         return points.to_vec();
     }
-    let p = |i: isize| -> Vector {
-        if i < 0 {
-            points[0].position.coords * 2.0 - points[1].position.coords
-        } else if i as usize >= n {
-            points[n - 1].position.coords * 2.0 - points[n - 2].position.coords
-        } else {
-            points[i as usize].position.coords
-        }
-    };
+    let control: Vec<Point> = points.iter().map(|p| p.position).collect();
     let mut out = Vec::with_capacity((n - 1) * k + 1);
-    for i in 0..n - 1 {
-        let (p0, p1, p2, p3) = (
-            p(i as isize - 1),
-            p(i as isize),
-            p(i as isize + 1),
-            p(i as isize + 2),
-        );
-        let (a, b) = (&points[i], &points[i + 1]);
-        for j in 0..k {
-            let t = j as Real / k as Real;
-            let (t2, t3) = (t * t, t * t * t);
-            let pos = (p1 * 2.0
-                + (p2 - p0) * t
-                + (p0 * 2.0 - p1 * 5.0 + p2 * 4.0 - p3) * t2
-                + (p1 * 3.0 - p0 - p2 * 3.0 + p3) * t3)
-                * 0.5;
-            let lerp = |x: Real, y: Real| x + (y - x) * t;
-            out.push(StrandPoint {
-                position: Point::from(pos),
-                radius: lerp(a.radius, b.radius),
-                color: [
-                    lerp(a.color[0], b.color[0]),
-                    lerp(a.color[1], b.color[1]),
-                    lerp(a.color[2], b.color[2]),
-                ],
-                wetness: lerp(a.wetness, b.wetness),
-            });
-        }
-    }
-    out.push(points[n - 1]);
+    // The curve gives the positions in order: point `j` of segment `i` at `i * k + j`.
+    crate::follow::catmull_rom_each(&control, k, |position| {
+        let at = out.len();
+        let (i, j) = ((at / k).min(n - 1), at % k);
+        let (a, b) = (&points[i], &points[(i + 1).min(n - 1)]);
+        let t = j as Real / k as Real;
+        let lerp = |x: Real, y: Real| x + (y - x) * t;
+        out.push(StrandPoint {
+            position,
+            radius: lerp(a.radius, b.radius),
+            color: [
+                lerp(a.color[0], b.color[0]),
+                lerp(a.color[1], b.color[1]),
+                lerp(a.color[2], b.color[2]),
+            ],
+            wetness: lerp(a.wetness, b.wetness),
+        });
+    });
     out
 }
 

@@ -16,6 +16,7 @@
 //! | [`CpuRenderer`] | the CPU reference (rayon): `render_to_image`, `opacity_maps` |
 //! | [`OpacityMaps`], [`OsmPlanes`], [`hat_weights`] | the 16 maps, their planes and the hat reconstruction |
 //! | [`mod@geometry`] | Catmull-Rom subdivision, strand groups, ribbon vertices |
+//! | [`follow`] | strands that follow skeletons: transport frames, Catmull-Rom curves through control points |
 //! | [`mod@shading`] | the two-highlight hair model on the CPU |
 //! | [`compare`] | image statistics for GPU/CPU comparisons |
 //! | `test_scenes` (feature `test-support`) | a procedural head with hanging hair for tests, benches and demos |
@@ -66,6 +67,7 @@
 pub mod compare;
 mod cpu;
 mod error;
+pub mod follow;
 mod frame;
 pub mod geometry;
 #[cfg(feature = "gpu")]
