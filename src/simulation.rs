@@ -268,6 +268,16 @@ impl Simulation {
         &self.grid
     }
 
+    /// Runs the grid's pair search with `kernel` (every kernel finds the same pairs in the same
+    /// order); an error, and the grid unchanged, when the processor lacks its instructions.
+    pub fn set_grid_kernel(&mut self, kernel: hair_grid::Kernel) -> Result<(), HairError> {
+        self.grid = Grid::try_new(GridConfig {
+            kernel,
+            ..GridConfig::default()
+        })?;
+        Ok(())
+    }
+
     /// Computes ahead the samples of the body's distance field that hair near the surface
     /// reads (`DistanceField::fill_band` on [`MeshBody::field`]): from [`PREFILL_INSIDE`] inside
     /// the surface to the near field's margin outside. The steps otherwise compute each the

@@ -53,8 +53,8 @@ enum Command {
 
 /// The grid kernel `HAIR_GRID_KERNEL` asks for (`avx512`, `avx2`, `baseline` or `auto`; unset:
 /// `auto`, the widest this processor has), or the value when it names no kernel. `hair bench
-/// grid` runs it, so that one machine measures every kernel; `hair run` builds its grid with
-/// the facade's defaults (every kernel gives the same pairs, so its results do not depend on
+/// grid` and `hair run` run it, so that one machine measures every kernel (every kernel gives
+/// the same pairs, so results do not depend on
 /// it).
 fn grid_kernel_from_env() -> Result<Kernel, String> {
     match std::env::var("HAIR_GRID_KERNEL") {
@@ -79,7 +79,10 @@ fn main() -> std::process::ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Run(args) => run::run(args),
+        Command::Run(args) => run::run(run::Args {
+            grid_kernel,
+            ..args
+        }),
         Command::Scenes(args) => scenes::run(args),
         Command::Convert(args) => convert::run(args),
         Command::Stability(args) => stability::run(args),

@@ -37,6 +37,10 @@ pub struct Args {
     /// first step that reads it. The results are the same either way.
     #[arg(long)]
     pub prefill_field: bool,
+    /// The grid's pair-search kernel (from `HAIR_GRID_KERNEL`; every kernel finds the same
+    /// pairs, so results do not depend on it).
+    #[arg(skip)]
+    pub grid_kernel: hair::grid::Kernel,
 }
 
 /// Per-frame metrics: the stats of the frame's last step plus the frame's totals.
@@ -175,6 +179,7 @@ pub fn simulate(
         .build()?;
     pool.install(|| {
         let mut sim = Simulation::new(&loaded, policy)?;
+        sim.set_grid_kernel(args.grid_kernel)?;
         let (prefilled_samples, prefill_ms) = if args.prefill_field {
             let t = std::time::Instant::now();
             let n = sim.prefill_body_field();
@@ -338,6 +343,7 @@ mod tests {
                 render: false,
                 size: 64,
                 prefill_field: false,
+                grid_kernel: hair::grid::Kernel::Auto,
             };
             let (summary, metrics, _) = simulate(&args, false, &mut |_, _| Ok(())).unwrap();
             assert_eq!(summary.pair_search_interval, interval);
@@ -368,6 +374,7 @@ mod tests {
                 render: false,
                 size: 64,
                 prefill_field,
+                grid_kernel: hair::grid::Kernel::Auto,
             };
             simulate(&args, false, &mut |_, _| Ok(())).unwrap().0
         };
