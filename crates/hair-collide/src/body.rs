@@ -50,7 +50,7 @@ impl BodyConstraint {
     /// front node closer to the body than its radius is moved out along the body's normal and
     /// loses its velocity into the body, with friction. The node stays on the sphere about the
     /// node before it, so a segment hanging straight into a surface swings out of it instead of
-    /// being re-aimed along itself ([`body_target`]).
+    /// being re-aimed along itself (`body_target`).
     ///
     /// After the ramp (below) the regular passes are sweeps ([`StrandState::sweep_chains`]):
     /// each skeleton root to tip, in parallel over skeletons, every node tested where the
@@ -76,7 +76,7 @@ impl BodyConstraint {
     /// [`CollisionSettings::max_body_passes`] have run. They use the exact distance, whatever the scene's method,
     /// once at most [`CollisionSettings::exact_late_nodes`] nodes are left; after the ramp they send a node whose
     /// centre is still inside by more than half the tolerance to the nearest point of its
-    /// sphere about its parent that clears the body ([`escape`]): lifting along the node's own
+    /// sphere about its parent that clears the body (`escape`): lifting along the node's own
     /// normal can land it inside again where the body is thin (an ear) or creased, pass after
     /// pass. The contacts of every pass lose their approach velocity once, after the last pass.
     /// Returns the nodes in contact on the first pass and the deepest node centre left inside
