@@ -27,7 +27,7 @@ pub const DRAPE_CLEARANCE: Real = 0.004;
 
 /// Lays a straight strand (`points`, root first) over the procedural head: root to tip, each
 /// segment keeps its length and direction, turned toward straight down by its length over
-/// [`DRAPE_TURN`], and a point that would lie within `clearance` of the scalp, the neck or the
+/// 5 cm, and a point that would lie within `clearance` of the scalp, the neck or the
 /// shoulders is moved out onto that margin along the part's radius, then back to the segment's
 /// length (three times).
 pub fn drape(points: &mut [Point], clearance: Real) {
