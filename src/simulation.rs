@@ -125,9 +125,15 @@ impl StageClock {
 impl Simulation {
     /// Builds the simulation of a loaded scene with a LOD policy.
     pub fn new(loaded: &LoadedScene, policy: LodPolicy) -> Result<Self, HairError> {
-        let scene = loaded.scene.clone();
+        let mut scene = loaded.scene.clone();
         let body = crate::body::from_spec(&scene.body, &loaded.base_dir)?;
         let style = hairstyle::from_spec(&scene.hairstyle, scene.seed, &loaded.base_dir)?;
+        if scene.camera.keys.is_empty() {
+            scene
+                .camera
+                .keys
+                .push(fitted_camera(&scene, &style, body.as_ref()));
+        }
         let bad_style = |message: String| HairError::SceneValue {
             file: loaded.source.clone(),
             field: "hairstyle".into(),
@@ -639,3 +645,30 @@ fn skeletons(scene: &Scene, h: &Hierarchy) -> Result<(StrandState, Vec<Real>), H
 
 /// How deep inside the body [`Simulation::prefill_body_field`] computes samples (m).
 pub const PREFILL_INSIDE: Real = 0.01;
+
+/// The camera a scene without one gets: the hair at time 0 and the body within a quarter of the
+/// hair's size around it (a bust's chest is not the subject), framed by [`CameraSpec::fit`].
+fn fitted_camera(
+    scene: &Scene,
+    style: &hair_lod::Hairstyle,
+    body: Option<&MeshBody>,
+) -> crate::scene::CameraKey {
+    let head = drivers::head_motion(&scene.head_motion, 0.0);
+    let world = |p: &Point| (head.position + head.rotation * p.coords).into();
+    let hair = style.strands.iter().flat_map(|s| s.points.iter());
+    let (mut lo, mut hi) = ([Real::INFINITY; 3], [Real::NEG_INFINITY; 3]);
+    for p in hair.clone() {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let margin = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, Real::max) * 0.25;
+    let near_hair = |p: &&Point| (0..3).all(|k| p[k] >= lo[k] - margin && p[k] <= hi[k] + margin);
+    let body_near = body
+        .into_iter()
+        .flat_map(|b| b.vertices.iter())
+        .filter(near_hair);
+    let points = hair.chain(body_near).map(world);
+    crate::scene::CameraSpec::fit(points, scene.camera.fov_degrees)
+}

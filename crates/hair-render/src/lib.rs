@@ -80,7 +80,7 @@ pub mod test_scenes;
 
 pub use cpu::CpuRenderer;
 pub use error::RenderError;
-pub use frame::{Globals, perspective_zero_to_one};
+pub use frame::{Globals, camera_view_proj, perspective_zero_to_one};
 #[cfg(feature = "gpu")]
 pub use gpu::{GpuRenderer, osm_shader_source, shade_shader_source};
 pub use image::{self, RgbaImage};
