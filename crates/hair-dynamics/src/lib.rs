@@ -10,7 +10,7 @@
 //! | [`SkeletonDesc`], [`Material`], [`Root`] | a skeleton to add: rest polyline, material profile, attached or free root |
 //! | [`Style`], [`style_points`] | straight, wavy and curly rest shapes |
 //! | [`Environment`], [`Wind`], [`HeadMotion`], [`ForceField`] | gravity, wind, head motion as fictitious forces, force cones |
-//! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | five integrators, local or chain torque |
+//! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | seven integrators, local or chain torque |
 //! | [`NodeCorrection`], [`VelocityConstraint`] | collision response mapped back to angles |
 //! | [`StrandState::sweep_chains`], [`SweepAsk`] | a position constraint applied root to tip, each node tested where the corrections before it put it (the hard body constraint) |
 //! | [`Bond`] | hairspray bonds between skeletons, with a break distance |
