@@ -220,7 +220,7 @@ pub(crate) fn step_strand<T: RealField + Copy>(
             symplectic_root(root, sc.root_acc, h);
         }
         Integrator::ImplicitRos2 => {
-            rosenbrock::step(
+            rosenbrock::advance(
                 &rosenbrock::ROS2,
                 root,
                 p,
@@ -234,7 +234,7 @@ pub(crate) fn step_strand<T: RealField + Copy>(
             );
         }
         Integrator::ImplicitRos3 => {
-            rosenbrock::step(
+            rosenbrock::advance(
                 &rosenbrock::ROS3,
                 root,
                 p,

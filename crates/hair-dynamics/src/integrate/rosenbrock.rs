@@ -27,6 +27,8 @@ pub(super) struct Tableau {
     pub c: [[f64; 3]; 3],
     /// `m_i`: the weights of the new state.
     pub m: [f64; 3],
+    /// `e_i`: the weights of the embedded method's difference (the local error estimate).
+    pub e: [f64; 3],
     /// Whether stage `i` evaluates the torques anew (otherwise it reuses stage `i - 1`'s).
     pub new_f: [bool; 3],
 }
@@ -42,6 +44,7 @@ pub(super) const ROS2: Tableau = Tableau {
     a: [[0.0; 3], [1.0 / ROS2_GAMMA, 0.0, 0.0], [0.0; 3]],
     c: [[0.0; 3], [-2.0 / ROS2_GAMMA, 0.0, 0.0], [0.0; 3]],
     m: [1.5 / ROS2_GAMMA, 0.5 / ROS2_GAMMA, 0.0],
+    e: [0.5 / ROS2_GAMMA, 0.5 / ROS2_GAMMA, 0.0],
     new_f: [true, true, false],
 };
 
@@ -60,6 +63,7 @@ pub(super) const ROS3: Tableau = Tableau {
         [4.075_995_645_253_770, 9.207_679_429_833_079, 0.0],
     ],
     m: [1.0, 6.169_794_704_382_824_5, -0.427_722_565_432_185_7],
+    e: [0.5, -2.907_955_871_680_547, 0.223_540_698_978_115_7],
     new_f: [true, true, false],
 };
 
@@ -75,8 +79,61 @@ impl<T: RealField + Copy, F: Fn(&RootDyn<T>, &[T], &[T], &[T], bool, &mut Scratc
 {
 }
 
-/// One Rosenbrock step of a strand by `tab`. A singular stage system leaves the angles non-finite
-/// on purpose, so the caller restores the strand and reports it.
+/// Largest local error (rad, the embedded estimate on any angle) a Rosenbrock piece may make; a
+/// step that exceeds it is redone in 2, 4, ... up to [`MAX_PIECES`] pieces.
+const ERROR_TOLERANCE: f64 = 0.01;
+/// Most pieces a step is split into.
+const MAX_PIECES: u32 = 16;
+
+/// One step of `h` by `tab`, split into 2, 4, ... [`MAX_PIECES`] equal pieces while any piece's
+/// embedded error estimate exceeds [`ERROR_TOLERANCE`]: the linearisation at the start of a
+/// piece is only trusted for a bounded change of the angles. `q0`, `w0` are the coordinates at the
+/// start of the step (the caller's copies). Returns the pieces used.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the kernel's inputs are all distinct slices"
+)]
+pub(super) fn advance<T: RealField + Copy>(
+    tab: &Tableau,
+    root: &mut RootDyn<T>,
+    p: &StrandParams<'_, T>,
+    q: &mut [T],
+    w: &mut [T],
+    length: &[T],
+    h: T,
+    settings: &StepSettings,
+    sc: &mut Scratch<T>,
+    eval: &impl Evaluate<T>,
+) -> u32 {
+    let m2 = q.len();
+    let root0 = *root;
+    let tol = T::from_f64(ERROR_TOLERANCE).unwrap_or_else(T::zero);
+    let mut pieces = 1u32;
+    loop {
+        let piece = h / T::from_u32(pieces).unwrap_or_else(T::one);
+        let mut ok = true;
+        for _ in 0..pieces {
+            let error = step(tab, root, p, q, w, length, piece, settings, sc, eval);
+            // `!(e <= tol)` also rejects a NaN estimate.
+            if !(error <= tol) {
+                ok = false;
+                break;
+            }
+        }
+        if ok || pieces >= MAX_PIECES {
+            return pieces;
+        }
+        q.copy_from_slice(&sc.q0[..m2]);
+        w.copy_from_slice(&sc.w0[..m2]);
+        *root = root0;
+        pieces *= 2;
+    }
+}
+
+/// One Rosenbrock step of a strand by `tab`; returns the embedded error estimate (the largest
+/// change of an angle between the method and its embedded partner, rad). A singular stage
+/// system leaves the angles non-finite on purpose, so the caller restores the strand and reports
+/// it.
 #[expect(
     clippy::too_many_arguments,
     reason = "the kernel's inputs are all distinct slices"
@@ -92,7 +149,7 @@ pub(super) fn step<T: RealField + Copy>(
     settings: &StepSettings,
     sc: &mut Scratch<T>,
     eval: &impl Evaluate<T>,
-) {
+) -> T {
     let m2 = q.len();
     let n = length.len();
     sc.reserve_rosenbrock(n);
@@ -176,12 +233,20 @@ pub(super) fn step<T: RealField + Copy>(
         }
     }
 
+    let mut error = T::zero();
     if solved {
         let weights = tab.m.map(real);
+        let estimate = tab.e.map(real);
         for c in 0..m2 {
+            let mut e = T::zero();
             for i in 0..tab.stages {
                 q[c] += weights[i] * uq[i * m2 + c];
                 w[c] += weights[i] * uw[i * m2 + c];
+                e += estimate[i] * uq[i * m2 + c];
+            }
+            // `max` would pass over a NaN.
+            if !(e.abs() <= error) {
+                error = e.abs();
             }
         }
         if root.free {
@@ -192,6 +257,7 @@ pub(super) fn step<T: RealField + Copy>(
         }
     } else {
         q.iter_mut().for_each(|x| *x = T::zero() / T::zero());
+        error = T::zero() / T::zero();
     }
     sc.ros_uq = uq;
     sc.ros_uw = uw;
@@ -199,6 +265,7 @@ pub(super) fn step<T: RealField + Copy>(
     sc.ros_rq = rq;
     sc.stage_q = stage_q;
     sc.stage_w = stage_w;
+    error
 }
 
 /// Swaps the kinematics a solve reads (positions, joint axes) and the tensions with their spare
