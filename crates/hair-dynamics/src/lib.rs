@@ -16,6 +16,7 @@
 //! | [`Bond`] | hairspray bonds between skeletons, with a break distance |
 //! | [`CutPoint`], [`StrandState::cut`], [`StrandState::hold_node`] | salon cuts (the fallen piece becomes a free skeleton) and grabbed control points |
 //! | [`mod@reference`] | f64 single-strand reference and the cantilever elastica |
+//! | [`XpbdStrands`], [`XpbdSettings`] | the engines' XPBD strand (stretch and bend compliance, substeps, iterations), the charts' peer |
 //!
 //! ```
 //! use hair_dynamics::*;
@@ -53,6 +54,7 @@ mod state;
 mod strand;
 mod style;
 mod summary;
+mod xpbd;
 
 pub use bend::{Bend, bend_between};
 pub use bonds::Bond;
@@ -64,6 +66,7 @@ pub use response::{NodeCorrection, SweepAsk, VelocityConstraint};
 pub use salon_ops::{CutPoint, CutResult};
 pub use state::{Material, Root, SkeletonDesc, SkeletonId, StrandState};
 pub use style::{Style, style_points};
+pub use xpbd::{XpbdSettings, XpbdStrands};
 
 /// Scalar of the runtime state.
 pub type Real = f32;

@@ -53,8 +53,14 @@ fn rosenbrock_steps_converge_at_their_order_on_a_strand() {
     let k = 1e-3;
     let reference = tip_after(k, Integrator::Rk4, 1.0 / 65536.0, t_end);
     let check = tip_after(k, Integrator::Rk4, 1.0 / 32768.0, t_end);
-    assert!((reference - check).norm() < 1e-10, "the reference is converged");
-    for (integrator, expected) in [(Integrator::ImplicitRos2, 2.0), (Integrator::ImplicitRos3, 3.0)] {
+    assert!(
+        (reference - check).norm() < 1e-10,
+        "the reference is converged"
+    );
+    for (integrator, expected) in [
+        (Integrator::ImplicitRos2, 2.0),
+        (Integrator::ImplicitRos3, 3.0),
+    ] {
         let errors: Vec<f64> = [1024.0, 2048.0, 4096.0]
             .iter()
             .map(|s| (tip_after(k, integrator, 1.0 / s, t_end) - reference).norm())
@@ -69,7 +75,8 @@ fn rosenbrock_steps_converge_at_their_order_on_a_strand() {
         }
     }
     // The first-order coupled step for comparison: far less accurate at a frame-rate step.
-    let coupled = (tip_after(k, Integrator::ImplicitCoupled, 1.0 / 128.0, t_end) - reference).norm();
+    let coupled =
+        (tip_after(k, Integrator::ImplicitCoupled, 1.0 / 128.0, t_end) - reference).norm();
     let ros3 = (tip_after(k, Integrator::ImplicitRos3, 1.0 / 128.0, t_end) - reference).norm();
     println!("tip error at dt = 1/128 s: coupled {coupled:.3e} m, ros3 {ros3:.3e} m");
     assert!(ros3 * 5.0 < coupled, "coupled {coupled:e}, ros3 {ros3:e}");
@@ -79,7 +86,11 @@ fn rosenbrock_steps_converge_at_their_order_on_a_strand() {
 fn stability_cell(integrator: Integrator, k: f64, steps_per_second: u32) -> (bool, f64) {
     let (mut state, _) = standard_strand(k as Real);
     let env = Environment::default();
-    let set = settings(1.0 / steps_per_second as Real, integrator, TorqueModel::Chain);
+    let set = settings(
+        1.0 / steps_per_second as Real,
+        integrator,
+        TorqueModel::Chain,
+    );
     let e0 = state.model_energy(&env, TorqueModel::Chain);
     let weight_length = 0.02 * 0.25 * 9.81 * 0.25;
     let (mut first, mut last, mut e_max) = (0.0f64, 0.0f64, e0);
@@ -128,14 +139,22 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
             }
         }
         println!("{integrator:?}: unstable (k, 1/dt) {unstable:?}; gaining energy {gaining:?}");
-        assert!(gaining.is_empty(), "{integrator:?}: cells gaining energy {gaining:?}");
+        assert!(
+            gaining.is_empty(),
+            "{integrator:?}: cells gaining energy {gaining:?}"
+        );
         if integrator == Integrator::ImplicitRos2 {
-            assert!(unstable.is_empty(), "{integrator:?}: unstable cells {unstable:?}");
+            assert!(
+                unstable.is_empty(),
+                "{integrator:?}: unstable cells {unstable:?}"
+            );
         } else {
             // ROS3 stays finite and makes up no energy, but in a few cells at the largest steps
             // the tip's peak speed grows from the first second to the second (docs/dynamics.md).
-            assert!(unstable.len() <= 5, "{integrator:?}: unstable cells {unstable:?}");
+            assert!(
+                unstable.len() <= 5,
+                "{integrator:?}: unstable cells {unstable:?}"
+            );
         }
     }
 }
-

@@ -195,7 +195,14 @@ pub(super) fn step<T: RealField + Copy>(
             // The stage's torques go through the same scratch; the kinematics the Jacobian was
             // built from are swapped out meanwhile and back in for the solve.
             swap_kinematics(sc);
-            eval(&stage_root, &stage_q[..m2], &stage_w[..m2], length, false, sc);
+            eval(
+                &stage_root,
+                &stage_q[..m2],
+                &stage_w[..m2],
+                length,
+                false,
+                sc,
+            );
             swap_kinematics(sc);
             ftau[..m2].copy_from_slice(&sc.tau[..m2]);
             f_vel = stage_root.velocity;
