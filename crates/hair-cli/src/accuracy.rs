@@ -524,13 +524,15 @@ fn print_tables(integrators: &[IntegratorRuns], elastica: &[Elastica]) {
     }
 }
 
-/// Distinct colours of the five integrators, in [`Integrator::ALL`] order.
-const COLOURS: [RGBColor; 5] = [
+/// Distinct colours of the integrators, in [`Integrator::ALL`] order.
+const COLOURS: [RGBColor; 7] = [
     RGBColor(214, 39, 40),
     RGBColor(255, 127, 14),
     RGBColor(31, 119, 180),
     RGBColor(148, 103, 189),
     RGBColor(44, 160, 44),
+    RGBColor(140, 86, 75),
+    RGBColor(23, 190, 207),
 ];
 
 fn err(e: impl std::fmt::Display) -> anyhow::Error {

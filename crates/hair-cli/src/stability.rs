@@ -308,7 +308,7 @@ fn cell_colour(c: &Cell) -> RGBColor {
     }
 }
 
-/// One heat map per integrator, in a 3 x 2 grid, the sixth panel holding the legend.
+/// One heat map per integrator, in a 3 x 3 grid, the panel after the last map holding the legend.
 fn draw(
     path: &std::path::Path,
     maps: &[IntegratorMap],
@@ -317,7 +317,7 @@ fn draw(
 ) -> anyhow::Result<()> {
     crate::chart::register_font();
     strand_setup::create_parent(path)?;
-    let root = BitMapBackend::new(path, (1500, 1000)).into_drawing_area();
+    let root = BitMapBackend::new(path, (1500, 1450)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (title, body) = root.split_vertically(50);
     title
@@ -326,7 +326,7 @@ fn draw(
             ("sans-serif", 26),
         )
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let panels = body.split_evenly((2, 3));
+    let panels = body.split_evenly((3, 3));
     let dts: Vec<f64> = STEPS_PER_SECOND
         .iter()
         .map(|s| 1.0 / f64::from(*s))

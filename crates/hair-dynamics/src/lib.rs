@@ -10,12 +10,13 @@
 //! | [`SkeletonDesc`], [`Material`], [`Root`] | a skeleton to add: rest polyline, material profile, attached or free root |
 //! | [`Style`], [`style_points`] | straight, wavy and curly rest shapes |
 //! | [`Environment`], [`Wind`], [`HeadMotion`], [`ForceField`] | gravity, wind, head motion as fictitious forces, force cones |
-//! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | five integrators, local or chain torque |
+//! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | seven integrators, local or chain torque |
 //! | [`NodeCorrection`], [`VelocityConstraint`] | collision response mapped back to angles |
 //! | [`StrandState::sweep_chains`], [`SweepAsk`] | a position constraint applied root to tip, each node tested where the corrections before it put it (the hard body constraint) |
 //! | [`Bond`] | hairspray bonds between skeletons, with a break distance |
 //! | [`CutPoint`], [`StrandState::cut`], [`StrandState::hold_node`] | salon cuts (the fallen piece becomes a free skeleton) and grabbed control points |
 //! | [`mod@reference`] | f64 single-strand reference and the cantilever elastica |
+//! | [`XpbdStrands`], [`XpbdSettings`] | the engines' XPBD strand (stretch and bend compliance, substeps, iterations), the charts' peer |
 //!
 //! ```
 //! use hair_dynamics::*;
@@ -53,6 +54,7 @@ mod state;
 mod strand;
 mod style;
 mod summary;
+mod xpbd;
 
 pub use bend::{Bend, bend_between};
 pub use bonds::Bond;
@@ -64,6 +66,7 @@ pub use response::{NodeCorrection, SweepAsk, VelocityConstraint};
 pub use salon_ops::{CutPoint, CutResult};
 pub use state::{Material, Root, SkeletonDesc, SkeletonId, StrandState};
 pub use style::{Style, style_points};
+pub use xpbd::{XpbdSettings, XpbdStrands};
 
 /// Scalar of the runtime state.
 pub type Real = f32;

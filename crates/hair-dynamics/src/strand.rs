@@ -81,6 +81,15 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub rhs: Vec<T>,
     pub perm: Vec<usize>,
     pub len0: Vec<T>,
+    // Rosenbrock steps: the stages' unknowns (`uq`, `uw`, stage-major), the stage's torques and
+    // angle right-hand side, and spare kinematics buffers (see `integrate::rosenbrock`).
+    pub ros_uq: Vec<T>,
+    pub ros_uw: Vec<T>,
+    pub ros_ftau: Vec<T>,
+    pub ros_rq: Vec<T>,
+    pub ros_pos: Vec<Vector3<T>>,
+    pub ros_axes: Vec<Vector3<T>>,
+    pub ros_tension: Vec<T>,
 }
 
 impl<T: RealField + Copy> Scratch<T> {
@@ -122,6 +131,20 @@ impl<T: RealField + Copy> Scratch<T> {
             grow(&mut self.sweep_diag, joints, Vector2::zeros());
             grow(&mut self.sweep_rhs, joints, Vector2::zeros());
         }
+    }
+}
+
+impl<T: RealField + Copy> Scratch<T> {
+    /// Sizes the Rosenbrock buffers for a strand of `n` nodes (after [`Scratch::reserve`]).
+    pub fn reserve_rosenbrock(&mut self, n: usize) {
+        let m2 = 2 * n.saturating_sub(1);
+        grow(&mut self.ros_uq, 3 * m2, T::zero());
+        grow(&mut self.ros_uw, 3 * m2, T::zero());
+        grow(&mut self.ros_ftau, m2, T::zero());
+        grow(&mut self.ros_rq, m2, T::zero());
+        grow(&mut self.ros_pos, n, Vector3::zeros());
+        grow(&mut self.ros_axes, m2, Vector3::zeros());
+        grow(&mut self.ros_tension, n, T::zero());
     }
 }
 

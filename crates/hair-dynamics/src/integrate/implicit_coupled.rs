@@ -54,17 +54,7 @@ pub(super) fn solve_step<T: RealField + Copy>(
     sc: &mut Scratch<T>,
 ) {
     let m2 = q.len();
-    let model = settings.torque;
-    let ok = match settings.solver {
-        LinearSolver::Structured => {
-            structured_solve(root, p, w, h, model, sc) || {
-                sc.dense_fallbacks += 1;
-                dense_solve(root, p, w, h, model, LinearSolver::Hand, sc)
-            }
-        }
-        dense => dense_solve(root, p, w, h, model, dense, sc),
-    };
-    if !ok {
+    if !solve_system(root, p, w, h, settings, sc) {
         // A singular system (an unstable equilibrium hit exactly) poisons the state on purpose:
         // the caller restores the strand and reports it rather than carrying a guess.
         sc.rhs[..m2]
@@ -74,6 +64,29 @@ pub(super) fn solve_step<T: RealField + Copy>(
     for c in 0..m2 {
         w[c] += sc.rhs[c];
         q[c] += h * w[c];
+    }
+}
+
+/// Solves `(I + h G + h^2 (K - J)) x = h tau + h^2 (J - K) w` into `sc.rhs` by `settings`' solver
+/// (the structured solve falling back to the dense LU), with `tau` from `sc.tau` and `J` from the
+/// kinematics and sums in `sc`. Returns `false` on an exactly singular system.
+pub(super) fn solve_system<T: RealField + Copy>(
+    root: &RootDyn<T>,
+    p: &StrandParams<'_, T>,
+    w: &[T],
+    h: T,
+    settings: &StepSettings,
+    sc: &mut Scratch<T>,
+) -> bool {
+    let model = settings.torque;
+    match settings.solver {
+        LinearSolver::Structured => {
+            structured_solve(root, p, w, h, model, sc) || {
+                sc.dense_fallbacks += 1;
+                dense_solve(root, p, w, h, model, LinearSolver::Hand, sc)
+            }
+        }
+        dense => dense_solve(root, p, w, h, model, dense, sc),
     }
 }
 

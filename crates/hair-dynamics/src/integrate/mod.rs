@@ -1,4 +1,4 @@
-//! Time integration: five integrators behind one interface, run in parallel over skeletons.
+//! Time integration: seven integrators behind one interface, run in parallel over skeletons.
 //!
 //! | integrator | method | where it fails |
 //! |---|---|---|
@@ -7,8 +7,11 @@
 //! | [`Integrator::Rk4`] | classic fourth order | stiff springs, steps above about `2.8 / omega` |
 //! | [`Integrator::ImplicitAngular`] | Ward & Lin Appendix A per angle, damping folded in | loads treated explicitly: gravity-dominated soft strands at large steps |
 //! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one `O(n)` structured solve per strand | none found in the stability sweep |
+//! | [`Integrator::ImplicitRos2`] | two-stage L-stable Rosenbrock (second order) on the same system, two solves of the coupled step's kind | see `hair stability` |
+//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves | see `hair stability` |
 
 mod implicit_coupled;
+mod rosenbrock;
 
 use crate::environment::LocalEnv;
 use crate::run::Run;
@@ -35,16 +38,24 @@ pub enum Integrator {
     /// Linearly implicit Euler on every angle of a strand at once (one linear solve per strand,
     /// see [`LinearSolver`]).
     ImplicitCoupled,
+    /// Verwer's two-stage Rosenbrock method ROS2 on the coupled system: second order, L-stable,
+    /// two solves of the coupled step's system per step (`docs/dynamics.md`).
+    ImplicitRos2,
+    /// Sandu et al.'s three-stage Rosenbrock method ROS3 on the coupled system: third order,
+    /// L-stable, two torque evaluations and three solves per step (`docs/dynamics.md`).
+    ImplicitRos3,
 }
 
 impl Integrator {
     /// Every integrator, in chart order.
-    pub const ALL: [Integrator; 5] = [
+    pub const ALL: [Integrator; 7] = [
         Integrator::ExplicitEuler,
         Integrator::SymplecticEuler,
         Integrator::Rk4,
         Integrator::ImplicitAngular,
         Integrator::ImplicitCoupled,
+        Integrator::ImplicitRos2,
+        Integrator::ImplicitRos3,
     ];
 
     /// A short stable name (`explicit_euler`, ...), used in JSON and on charts.
@@ -55,6 +66,8 @@ impl Integrator {
             Integrator::Rk4 => "rk4",
             Integrator::ImplicitAngular => "implicit_angular",
             Integrator::ImplicitCoupled => "implicit_coupled",
+            Integrator::ImplicitRos2 => "implicit_ros2",
+            Integrator::ImplicitRos3 => "implicit_ros3",
         }
     }
 
@@ -62,6 +75,8 @@ impl Integrator {
     pub fn order(self) -> u32 {
         match self {
             Integrator::Rk4 => 4,
+            Integrator::ImplicitRos3 => 3,
+            Integrator::ImplicitRos2 => 2,
             _ => 1,
         }
     }
@@ -146,7 +161,10 @@ pub(crate) fn step_strand<T: RealField + Copy>(
     let n = length.len();
     let m2 = 2 * (n - 1);
     let h = T::from_f32(settings.dt).unwrap_or_else(T::zero);
-    let coupled = settings.integrator == Integrator::ImplicitCoupled;
+    let coupled = matches!(
+        settings.integrator,
+        Integrator::ImplicitCoupled | Integrator::ImplicitRos2 | Integrator::ImplicitRos3
+    );
     sc.reserve(n, coupled);
     sc.q0[..m2].copy_from_slice(q);
     sc.w0[..m2].copy_from_slice(w);
@@ -200,6 +218,34 @@ pub(crate) fn step_strand<T: RealField + Copy>(
             eval(root, q, w, length, true, sc);
             implicit_coupled::solve_step(root, p, q, w, h, settings, sc);
             symplectic_root(root, sc.root_acc, h);
+        }
+        Integrator::ImplicitRos2 => {
+            rosenbrock::advance(
+                &rosenbrock::ROS2,
+                root,
+                p,
+                q,
+                w,
+                length,
+                h,
+                settings,
+                sc,
+                &eval,
+            );
+        }
+        Integrator::ImplicitRos3 => {
+            rosenbrock::advance(
+                &rosenbrock::ROS3,
+                root,
+                p,
+                q,
+                w,
+                length,
+                h,
+                settings,
+                sc,
+                &eval,
+            );
         }
     }
 
