@@ -470,7 +470,9 @@ impl Simulation {
         stats.ms_grid = clock.lap();
         let (state, collision, front) = (&mut self.state, &self.scene.collision, &self.front_nodes);
         let (grid, sections, dt) = (&self.grid, &self.sections, self.settings.dt);
-        let r = self.hair_hair.respond(state, grid, sections, front, collision, dt)?;
+        let r = self
+            .hair_hair
+            .respond(state, grid, sections, front, collision, dt)?;
         (stats.pairs_tested, stats.hair_contacts) = (r.pairs_tested, r.contacts);
         stats.volume_cells = r.volume_cells;
         stats.ms_hair_hair = clock.lap();

@@ -106,7 +106,10 @@ fn the_models_differ_and_pairs_is_the_default() {
         sim.state_hash()
     };
     let pairs = hash(HairHairModel::Pairs);
-    assert_ne!(pairs, hash(HairHairModel::Volume(VolumeSettings::default())));
+    assert_ne!(
+        pairs,
+        hash(HairHairModel::Volume(VolumeSettings::default()))
+    );
     assert_ne!(pairs, hash(HairHairModel::Off));
     assert_eq!(
         Scene::load("bristles").unwrap().scene.collision.hair_hair,

@@ -408,8 +408,13 @@ mod tests {
             }
             hashes.push(summary.state_hash);
         }
-        assert!(hashes[0] != hashes[1] && hashes[1] != hashes[2], "{hashes:?}");
-        let err = simulate(&args("grid"), false, &mut |_, _| Ok(())).err().unwrap();
+        assert!(
+            hashes[0] != hashes[1] && hashes[1] != hashes[2],
+            "{hashes:?}"
+        );
+        let err = simulate(&args("grid"), false, &mut |_, _| Ok(()))
+            .err()
+            .unwrap();
         assert!(format!("{err:#}").contains("volume, pairs, off"), "{err:#}");
     }
 

@@ -1,8 +1,6 @@
 //! The hair-hair stage: the scene's model ([`crate::HairHairModel`]) behind one call.
 
-use crate::{
-    CollideError, CollisionSettings, HairHairModel, HairPairs, HairVolume, Sections,
-};
+use crate::{CollideError, CollisionSettings, HairHairModel, HairPairs, HairVolume, Sections};
 use hair_dynamics::StrandState;
 use hair_grid::Grid;
 use hair_ssv::Real;

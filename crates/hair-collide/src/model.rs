@@ -88,10 +88,16 @@ impl VolumeSettings {
         let positive = |x: Real| x.is_finite() && x > 0.0;
         let non_negative = |x: Real| x.is_finite() && x >= 0.0;
         if !positive(self.cell_size) {
-            return Some(("hair_hair.cell_size", format!("must be positive and finite, got {}", self.cell_size)));
+            return Some((
+                "hair_hair.cell_size",
+                format!("must be positive and finite, got {}", self.cell_size),
+            ));
         }
         if self.max_cells < 8 {
-            return Some(("hair_hair.max_cells", format!("must be at least 8, got {}", self.max_cells)));
+            return Some((
+                "hair_hair.max_cells",
+                format!("must be at least 8, got {}", self.max_cells),
+            ));
         }
         for (field, x) in [
             ("hair_hair.friction_root", self.friction_root),
@@ -103,7 +109,10 @@ impl VolumeSettings {
             }
         }
         if !positive(self.density_limit) {
-            return Some(("hair_hair.density_limit", format!("must be positive and finite, got {}", self.density_limit)));
+            return Some((
+                "hair_hair.density_limit",
+                format!("must be positive and finite, got {}", self.density_limit),
+            ));
         }
         None
     }
@@ -205,7 +214,11 @@ mod serde_impl {
             f.write_str("Volume(..), Pairs, Off, or the old true / false")
         }
         fn visit_bool<E: de::Error>(self, v: bool) -> Result<HairHairModel, E> {
-            Ok(if v { HairHairModel::Pairs } else { HairHairModel::Off })
+            Ok(if v {
+                HairHairModel::Pairs
+            } else {
+                HairHairModel::Off
+            })
         }
         fn visit_str<E: de::Error>(self, v: &str) -> Result<HairHairModel, E> {
             match v {

@@ -131,7 +131,8 @@ impl HairVolume {
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
         self.targets.clear();
-        let Some((lo, hi, mean_length, max_mass, max_momentum)) = self.gather(state, front, settings)?
+        let Some((lo, hi, mean_length, max_mass, max_momentum)) =
+            self.gather(state, front, settings)?
         else {
             self.lattice = Lattice::default();
             self.velocity.clear();
@@ -195,8 +196,9 @@ impl HairVolume {
                     return Err(CollideError::NonFiniteNode { node: i });
                 }
                 self.nodes.push(i as u32);
-                self.rate
-                    .push(settings.friction_root + (settings.friction_tip - settings.friction_root) * t);
+                self.rate.push(
+                    settings.friction_root + (settings.friction_tip - settings.friction_root) * t,
+                );
                 lo = lo.inf(&p[i]);
                 hi = hi.sup(&p[i]);
                 total_length += f64::from(length[i]);
@@ -345,7 +347,11 @@ impl HairVolume {
             m2 += m * m;
             m1 += m;
         }
-        self.mean_density = if m1 > 0.0 { (m2 / (m1 * volume)) as Real } else { 0.0 };
+        self.mean_density = if m1 > 0.0 {
+            (m2 / (m1 * volume)) as Real
+        } else {
+            0.0
+        };
     }
 
     /// The lattice's mass-weighted mean density at the last splat (kg/m³): the density a unit
@@ -477,8 +483,20 @@ fn density_and_gradient(
         .sum::<Real>();
     // Differences along each axis, bilinear in the other two.
     let lerp = |a: Real, b: Real, t: Real| a + (b - a) * t;
-    let gx = lerp(lerp(d[1] - d[0], d[3] - d[2], y), lerp(d[5] - d[4], d[7] - d[6], y), z);
-    let gy = lerp(lerp(d[2] - d[0], d[3] - d[1], x), lerp(d[6] - d[4], d[7] - d[5], x), z);
-    let gz = lerp(lerp(d[4] - d[0], d[5] - d[1], x), lerp(d[6] - d[2], d[7] - d[3], x), y);
+    let gx = lerp(
+        lerp(d[1] - d[0], d[3] - d[2], y),
+        lerp(d[5] - d[4], d[7] - d[6], y),
+        z,
+    );
+    let gy = lerp(
+        lerp(d[2] - d[0], d[3] - d[1], x),
+        lerp(d[6] - d[4], d[7] - d[5], x),
+        z,
+    );
+    let gz = lerp(
+        lerp(d[4] - d[0], d[5] - d[1], x),
+        lerp(d[6] - d[2], d[7] - d[3], x),
+        y,
+    );
     (rho, Vector::new(gx, gy, gz) * inv_spacing)
 }

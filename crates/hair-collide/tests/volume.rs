@@ -18,7 +18,9 @@ fn moving_tangle(count: usize, points: usize, seed: u64, spin: Real) -> StrandSt
         let axis = Vector::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5);
         let frame = Rotation3::new(axis * 2.0);
         let dir = frame * Vector::z();
-        let pts = (0..points).map(|k| root + dir * (0.008 * k as Real)).collect();
+        let pts = (0..points)
+            .map(|k| root + dir * (0.008 * k as Real))
+            .collect();
         state
             .add_skeleton(&SkeletonDesc {
                 root: Root::Attached {
@@ -141,7 +143,10 @@ fn splat_and_sample_match_a_brute_force_sum() {
             let alpha = 1.0 - (-rate(k) * f64::from(dt)).exp();
             let own = v[i].map(f64::from);
             let want = own + (sampled - own) * alpha;
-            assert!((got.map(f64::from) - want).norm() <= 1e-5 * vmax, "node {i}");
+            assert!(
+                (got.map(f64::from) - want).norm() <= 1e-5 * vmax,
+                "node {i}"
+            );
         }
     }
 }
@@ -215,9 +220,7 @@ fn splat_is_bit_identical_on_1_2_and_5_threads() {
             .unwrap();
         pool.install(|| {
             let mut volume = HairVolume::new();
-            let report = volume
-                .blend(&state, &front, &settings, 1.0 / 60.0)
-                .unwrap();
+            let report = volume.blend(&state, &front, &settings, 1.0 / 60.0).unwrap();
             assert!(report.repelled > 0);
             let b = |v: &Vector| [v.x, v.y, v.z].map(f32::to_bits);
             (
