@@ -24,6 +24,7 @@
 //! # Ok::<(), hair::HairError>(())
 //! ```
 
+pub use hair_collide as collide;
 pub use hair_dynamics as dynamics;
 pub use hair_grid as grid;
 pub use hair_io as io;

@@ -9,7 +9,7 @@ use crate::lod_stage::{self, LodStage};
 use crate::render_geometry::{DrawnStrands, RenderGeometry};
 use crate::scene::{LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
-use hair_collide::{BodyConstraint, HairPairs, Localization, Sections};
+use hair_collide::{BodyConstraint, HairHairStage, Localization, Sections};
 use hair_dynamics::{Environment, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
 use hair_lod::{Hierarchy, NodeKind};
@@ -57,8 +57,10 @@ pub struct StepStats {
     pub dormant: usize,
     /// Hair-hair pairs tested exactly.
     pub pairs_tested: usize,
-    /// Hair-hair pairs in contact.
+    /// Hair-hair pairs in contact (`Pairs`), or nodes the density pushed (`Volume`).
     pub hair_contacts: usize,
+    /// Points of the hair-hair volume's dense grid (`Volume`; 0 otherwise).
+    pub volume_cells: usize,
     /// Nodes in contact with the body.
     pub body_contacts: usize,
     /// Deepest node inside the body after the hard constraint (m).
@@ -96,7 +98,7 @@ pub struct Simulation {
     /// The front's segments as grid sections.
     sections: Sections,
     localization: Localization,
-    hair_pairs: HairPairs,
+    hair_hair: HairHairStage,
     body_constraint: BodyConstraint,
     salon: Salon,
     /// Per skeleton, its collision radius as built (the salon's tools scale it).
@@ -178,7 +180,7 @@ impl Simulation {
             grid: Grid::new(GridConfig::default()),
             sections: Sections::default(),
             localization: Localization::default(),
-            hair_pairs: HairPairs::new(),
+            hair_hair: HairHairStage::new(),
             body_constraint: BodyConstraint::new(),
             salon,
             node_radius,
@@ -267,9 +269,9 @@ impl Simulation {
     }
 
     /// The localization grid as the last step rebuilt it: the front's hair sections (in the
-    /// head frame), their cells and the pair search's data. With `pair_search_interval` above
-    /// 1 and localization off, the steps between pair searches leave it as the last search
-    /// built it.
+    /// head frame), their cells and the pair search's data. With localization off, the steps
+    /// between pair searches (`pair_search_interval` above 1) leave it as the last search built
+    /// it, and with `Volume` or `Off` and no tool script, no step builds it.
     pub fn grid(&self) -> &Grid {
         &self.grid
     }
@@ -428,7 +430,7 @@ impl Simulation {
         self.state.clone_from(&self.initial);
         self.time = 0.0;
         self.steps = 0;
-        self.hair_pairs.forget();
+        self.hair_hair.forget();
         self.localization.clear();
         self.accumulator = 0.0;
         self.frame_render.positions.clear();
@@ -447,7 +449,7 @@ impl Simulation {
             return;
         }
         // Other skeletons, other sections: the kept pairs no longer describe the hair.
-        self.hair_pairs.forget();
+        self.hair_hair.forget();
         self.lod.front_into(&self.hierarchy, &mut self.front_nodes);
         self.drawn
             .assign(&self.hierarchy, &self.state, &self.front_nodes);
@@ -472,11 +474,13 @@ impl Simulation {
         stats.ms_lod = clock.lap();
         self.build_grid()?;
         stats.ms_grid = clock.lap();
-        let (state, collision) = (&mut self.state, &self.scene.collision);
-        let pairs = self
-            .hair_pairs
-            .respond(state, &self.grid, &self.sections, collision)?;
-        (stats.pairs_tested, stats.hair_contacts) = (pairs.pairs_tested, pairs.contacts);
+        let (state, collision, front) = (&mut self.state, &self.scene.collision, &self.front_nodes);
+        let (grid, sections, dt) = (&self.grid, &self.sections, self.settings.dt);
+        let r = self
+            .hair_hair
+            .respond(state, grid, sections, front, collision, dt)?;
+        (stats.pairs_tested, stats.hair_contacts) = (r.pairs_tested, r.contacts);
+        stats.volume_cells = r.volume_cells;
         stats.ms_hair_hair = clock.lap();
         stats.dense_fallbacks = self.state.step(&env, &self.settings)?.dense_fallbacks;
         self.count_active(&mut stats);
@@ -528,15 +532,15 @@ impl Simulation {
     }
 
     /// The grid stage over the front's segments (head frame, where the body is static): the
-    /// pair grid when the hair-hair model searches this step or localization measures
-    /// activity, then localization.
+    /// pair grid when the hair-hair model searches this step (`Pairs` only), localization
+    /// measures activity or a tool script reads its cells, then localization.
     fn build_grid(&mut self) -> Result<(), HairError> {
         self.sections.build(&self.state, &self.front_nodes);
         // The pairs of the last search are tested again while young enough and the hair is the
         // same hair: the same front (a new one drops them) and no tool script (a cut, a bond).
         let reuse_allowed = self.salon.script().events.is_empty();
-        let search = self.hair_pairs.plan(&self.scene.collision, reuse_allowed);
-        if search || self.scene.localization {
+        let search = self.hair_hair.plan(&self.scene.collision, reuse_allowed);
+        if search || self.scene.localization || !reuse_allowed {
             self.grid.rebuild(&self.sections.sections)?;
         }
         if self.scene.localization {

@@ -37,6 +37,10 @@ pub struct Args {
     /// first step that reads it. The results are the same either way.
     #[arg(long)]
     pub prefill_field: bool,
+    /// Hair-hair model: volume (with its default settings), pairs or off (default: the
+    /// scene's own `collision.hair_hair`).
+    #[arg(long)]
+    pub hair_hair: Option<String>,
     /// The grid's pair-search kernel (from `HAIR_GRID_KERNEL`; every kernel finds the same
     /// pairs, so results do not depend on it).
     #[arg(skip)]
@@ -71,6 +75,13 @@ pub struct Summary {
     /// Steps from one hair-hair pair search to the next (the scene's
     /// `collision.pair_search_interval`; 1 searches every step).
     pub pair_search_interval: u32,
+    /// The hair-hair model run: `volume`, `pairs` or `off`.
+    pub hair_hair: String,
+    /// Mean points of the hair-hair volume's dense grid per step (0 unless `volume`).
+    pub mean_volume_cells: f64,
+    /// Mean hair-hair contacts per step: pairs in contact (`pairs`), or nodes the density
+    /// pushed (`volume`).
+    pub mean_hair_contacts: f64,
     /// Mean milliseconds per frame.
     pub ms_per_frame: f64,
     /// Median milliseconds per frame: the mean counts the first frames, which fill the body's
@@ -169,6 +180,10 @@ pub fn simulate(
         })?,
         None => loaded.scene.lod,
     };
+    if let Some(name) = &args.hair_hair {
+        loaded.scene.collision.hair_hair = hair::collide::HairHairModel::from_name(name)
+            .with_context(|| format!("unknown hair-hair model `{name}` (volume, pairs, off)"))?;
+    }
     let frames = args.frames.unwrap_or(loaded.scene.frames);
     let threads = args
         .threads
@@ -206,6 +221,7 @@ pub fn simulate(
         let (mut active, mut dormant, mut steps) = (0.0f64, 0.0f64, 0.0f64);
         let mut last = StepStats::default();
         let mut dense_fallbacks = 0;
+        let (mut volume_cells, mut hair_contacts) = (0.0f64, 0.0f64);
         for frame in 0..frames {
             let mut ms_frame = 0.0;
             for _ in 0..substeps {
@@ -224,6 +240,8 @@ pub fn simulate(
                 active += s.active as f64;
                 dormant += s.dormant as f64;
                 dense_fallbacks += s.dense_fallbacks;
+                volume_cells += s.volume_cells as f64;
+                hair_contacts += s.hair_contacts as f64;
                 steps += 1.0;
                 last = s;
             }
@@ -261,6 +279,9 @@ pub fn simulate(
             frames,
             substeps,
             pair_search_interval: loaded.scene.collision.pair_search_interval,
+            hair_hair: loaded.scene.collision.hair_hair.name().into(),
+            mean_volume_cells: volume_cells / steps.max(1.0),
+            mean_hair_contacts: hair_contacts / steps.max(1.0),
             ms_per_frame: total_ms / f,
             ms_frame_p50: frame_ms.percentile(50),
             ms_frame_p95: frame_ms.percentile(95),
@@ -344,6 +365,7 @@ mod tests {
                 size: 64,
                 prefill_field: false,
                 grid_kernel: hair::grid::Kernel::Auto,
+                hair_hair: None,
             };
             let (summary, metrics, _) = simulate(&args, false, &mut |_, _| Ok(())).unwrap();
             assert_eq!(summary.pair_search_interval, interval);
@@ -357,6 +379,43 @@ mod tests {
             assert!(summary.ms_frame_max >= summary.ms_per_frame);
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `--hair-hair` replaces the scene's model, and the summary names it with its grid and
+    /// contact counts; an unknown name is an error naming the choices.
+    #[test]
+    fn the_hair_hair_flag_picks_the_model() {
+        let args = |model: &str| Args {
+            scene: "bristles".into(),
+            frames: Some(2),
+            out: std::env::temp_dir(),
+            lod: None,
+            threads: Some(2),
+            seed: None,
+            render: false,
+            size: 64,
+            prefill_field: false,
+            grid_kernel: hair::grid::Kernel::Auto,
+            hair_hair: Some(model.into()),
+        };
+        let mut hashes = Vec::new();
+        for model in ["volume", "pairs", "off"] {
+            let (summary, _, _) = simulate(&args(model), false, &mut |_, _| Ok(())).unwrap();
+            assert_eq!(summary.hair_hair, model);
+            assert_eq!(summary.mean_volume_cells > 0.0, model == "volume");
+            if model == "off" {
+                assert_eq!(summary.mean_hair_contacts, 0.0);
+            }
+            hashes.push(summary.state_hash);
+        }
+        assert!(
+            hashes[0] != hashes[1] && hashes[1] != hashes[2],
+            "{hashes:?}"
+        );
+        let err = simulate(&args("grid"), false, &mut |_, _| Ok(()))
+            .err()
+            .unwrap();
+        assert!(format!("{err:#}").contains("volume, pairs, off"), "{err:#}");
     }
 
     /// `--prefill-field` computes the distance field's band before the first frame and
@@ -375,6 +434,7 @@ mod tests {
                 size: 64,
                 prefill_field,
                 grid_kernel: hair::grid::Kernel::Auto,
+                hair_hair: None,
             };
             simulate(&args, false, &mut |_, _| Ok(())).unwrap().0
         };

@@ -319,7 +319,7 @@ pub fn run(args: Args) -> Result<()> {
         ..config(LodPolicy::Adaptive, own, false)
     }));
     let c = &loaded.scene.collision;
-    if c.hair_hair && c.pair_search_interval == 1 {
+    if c.hair_hair == hair::collide::HairHairModel::Pairs && c.pair_search_interval == 1 {
         configs.extend(PAIR_SEARCH_INTERVALS.map(|pair_interval| Config {
             pair_interval,
             ..config(LodPolicy::Fine, own, false)

@@ -8,6 +8,9 @@
 //! |---|---|
 //! | [`CollisionSettings`] | every setting of both stages, with documented defaults; [`CollisionSettings::validate`] |
 //! | [`BodyConstraint`], [`BodyReport`] | the hard body constraint: nodes out of a [`hair_ssv::MeshBody`] root to tip, approach velocity removed with friction, a depenetration ramp for hair that starts inside |
+//! | [`HairHairModel`], [`VolumeSettings`] | the choice of hair-hair model (`Volume`, `Pairs`, `Off`) and the volume model's settings |
+//! | [`HairHairStage`], [`HairHairReport`] | the hair-hair stage: the chosen model behind one call |
+//! | [`HairVolume`], [`Lattice`], [`VolumeReport`] | hair as a volume: mass and momentum on a dense grid, friction toward its velocity, a push out of over-dense places; the same bits on any thread count |
 //! | [`HairPairs`], [`Sections`], [`PushCombine`], [`PairsReport`] | the papers' hair-hair model: exact swept-sphere pairs from a [`hair_grid::Grid`], near-parallel ones share velocity, crossing ones are pushed apart |
 //! | [`Localization`] | active and dormant skeletons from the grid's cell activity |
 //! | [`CollideError`] | the one error type |
@@ -40,16 +43,23 @@
 //!
 //! Papers: Kurihara, Anjyo & Thalmann (1993) §4, the reaction constraint (here positional,
 //! root to tip); Ward & Lin (2003) §5.4, hair-hair response between swept sphere volumes;
-//! Ward, Galoppo & Lin, simulation localization (§4.3).
+//! Ward, Galoppo & Lin, simulation localization (§4.3); Petrovic, Henne & Anderson (2005) §3,
+//! hair as a volume.
 
 mod body;
 mod error;
+mod hair_hair;
 mod localization;
+mod model;
 mod pairs;
 mod settings;
+mod volume;
 
 pub use body::{BodyConstraint, BodyReport};
 pub use error::CollideError;
+pub use hair_hair::{HairHairReport, HairHairStage};
 pub use localization::Localization;
+pub use model::{HairHairModel, VolumeSettings};
 pub use pairs::{HairPairs, PairsReport, PushCombine, Sections};
 pub use settings::{CollisionSettings, SettingsError};
+pub use volume::{HairVolume, Lattice, VolumeReport};

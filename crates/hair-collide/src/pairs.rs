@@ -2,7 +2,7 @@
 //! sections of the grid's candidate pairs; near-parallel sections in contact share their
 //! velocity, crossing ones are pushed apart by half their overlap each.
 
-use crate::CollisionSettings;
+use crate::{CollisionSettings, HairHairModel};
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState};
 use hair_grid::{Grid, PairSet, Section};
 use hair_ssv::{Lss, Point, Real, Ssv, Vector};
@@ -96,16 +96,18 @@ impl HairPairs {
 
     /// Decides whether this step searches the grid for pairs or tests again the pairs of the
     /// last search (young enough, and `reuse_allowed`: the hair is the same hair, no tool
-    /// acting). Returns whether the step needs the grid rebuilt for a search.
+    /// acting). Returns whether the step needs the grid rebuilt for a search: never when the
+    /// model is not `Pairs`.
     pub fn plan(&mut self, settings: &CollisionSettings, reuse_allowed: bool) -> bool {
         let interval = settings.pair_search_interval.max(1);
+        let pairs = settings.hair_hair == HairHairModel::Pairs;
         self.reuse = match self.kept_pairs {
-            Some((chunks, age)) if settings.hair_hair && age + 1 < interval && reuse_allowed => {
+            Some((chunks, age)) if pairs && age + 1 < interval && reuse_allowed => {
                 Some((chunks, age + 1))
             }
             _ => None,
         };
-        self.reuse.is_none()
+        pairs && self.reuse.is_none()
     }
 
     /// The response of the step planned by [`HairPairs::plan`]: shares change the joints'
@@ -119,7 +121,7 @@ impl HairPairs {
         settings: &CollisionSettings,
     ) -> Result<PairsReport, DynamicsError> {
         let mut report = PairsReport::default();
-        if !settings.hair_hair {
+        if settings.hair_hair != HairHairModel::Pairs {
             return Ok(report);
         }
         let interval = settings.pair_search_interval.max(1);

@@ -1,6 +1,6 @@
 //! The collision settings: one struct for both stages, as a scene file's `collision` block.
 
-use crate::PushCombine;
+use crate::{HairHairModel, PushCombine};
 use hair_ssv::{CollisionMethod, Real};
 
 /// How hair collides with the body and with itself (SI units). Every field has a documented
@@ -16,8 +16,10 @@ pub struct CollisionSettings {
     pub method: CollisionMethod,
     /// Coulomb friction against the body, in [0, 1]. Default 0.3.
     pub friction: Real,
-    /// Whether hair collides with hair. Default true.
-    pub hair_hair: bool,
+    /// The hair-hair model: `Volume(..)`, `Pairs` or `Off`. Default `Pairs`, the exact model,
+    /// so that scenes keep their results (`docs/scene-format.md`; the old `true` and `false`
+    /// read as `Pairs` and `Off`).
+    pub hair_hair: HairHairModel,
     /// Hair-hair sections closer than this angle (rad) are parallel: they share their velocity
     /// instead of being pushed apart. Default 0.3.
     pub parallel_angle: Real,
@@ -54,7 +56,7 @@ impl Default for CollisionSettings {
         Self {
             method: CollisionMethod::Field,
             friction: 0.3,
-            hair_hair: true,
+            hair_hair: HairHairModel::Pairs,
             parallel_angle: 0.3,
             hair_hair_push: PushCombine::Mean,
             pair_search_interval: 1,
@@ -98,6 +100,11 @@ impl CollisionSettings {
                     self.parallel_angle
                 ),
             );
+        }
+        if let HairHairModel::Volume(volume) = &self.hair_hair
+            && let Some((field, message)) = volume.check()
+        {
+            return bad(field, message);
         }
         if self.pair_search_interval == 0 {
             return bad(
