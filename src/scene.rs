@@ -414,8 +414,8 @@ impl CameraSpec {
         let half = (0.5 * fov_degrees.to_radians()).clamp(0.05, 1.5);
         let distance = 1.1 * radius.max(0.05) / half.sin();
         // Three-quarter front: between the face (+z) and the side (+x), a little above.
-        let (dx, dy, dz) = (0.62, 0.3, 0.72);
-        let norm = (dx * dx + dy * dy + dz * dz) as f32;
+        let (dx, dy, dz): (f32, f32, f32) = (0.62, 0.3, 0.72);
+        let norm = dx * dx + dy * dy + dz * dz;
         let dir = [dx / norm.sqrt(), dy / norm.sqrt(), dz / norm.sqrt()];
         CameraKey {
             time: 0.0,
