@@ -301,9 +301,9 @@ impl HairVolume {
                 for (w, corner) in weights(&c.frac).into_iter().zip(corner_offsets(dims)) {
                     let w = f64::from(w);
                     let cell = &mut chunk[c.base as usize + corner - offset];
-                    cell[0] += (m * w * mass_scale).round() as i64;
+                    cell[0] += to_fixed(m * w * mass_scale);
                     for k in 0..3 {
-                        cell[k + 1] += (mv[k] * w * momentum_scale).round() as i64;
+                        cell[k + 1] += to_fixed(mv[k] * w * momentum_scale);
                     }
                 }
             }
@@ -426,6 +426,12 @@ fn lattice_over(lo: Point, hi: Point, spacing: Real, max_points: u32) -> Lattice
     }
 }
 
+/// `x` to the nearest integer, halves away from zero: an add and a truncation, where
+/// `f64::round` is a library call in the splat's inner loop; the same bits on every CPU.
+fn to_fixed(x: f64) -> i64 {
+    (x + 0.5f64.copysign(x)) as i64
+}
+
 /// Planes per slab: at least two, so that a slab's nodes reach only the next slab.
 fn slab_thickness(planes: usize) -> usize {
     planes.div_ceil(SLABS).max(2)
@@ -499,4 +505,25 @@ fn density_and_gradient(
         y,
     );
     (rho, Vector::new(gx, gy, gz) * inv_spacing)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::to_fixed;
+
+    #[test]
+    fn to_fixed_rounds_like_round_away_from_ties() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let unit = (x >> 11) as f64 / (1u64 << 53) as f64;
+            let value = (unit - 0.5) * 2.0f64.powi((x % 60) as i32);
+            assert_eq!(to_fixed(value), value.round() as i64, "{value}");
+        }
+        for tie in [0.5, 1.5, 2.5, -0.5, -1.5, -2.5] {
+            assert_eq!(to_fixed(tie), (tie as f64).round() as i64, "{tie}");
+        }
+    }
 }
