@@ -48,6 +48,15 @@ impl Paths {
     /// Refuses, before any simulation, a file that exists when it may not be replaced or two
     /// outputs that are the same file; creates the files' directories (as `--out` does).
     pub fn prepare(&self) -> Result<()> {
+        if let Some(usd) = &self.usd {
+            let ext = usd.extension().and_then(|e| e.to_str()).unwrap_or("");
+            if !["usda", "usd"].contains(&ext.to_ascii_lowercase().as_str()) {
+                bail!(
+                    "--usd {}: the stage is written as text, so its name ends in .usda (or .usd)",
+                    usd.display()
+                );
+            }
+        }
         if self.usd.as_deref() == Some(self.positions.as_path()) {
             bail!(
                 "--usd and --positions are the same file ({})",

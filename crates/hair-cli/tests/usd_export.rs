@@ -121,7 +121,10 @@ fn usd_export_is_what_it_claims_and_an_existing_file_is_kept() {
         serde_json::from_slice(&std::fs::read(dir.join("run/summary.json")).unwrap()).unwrap();
     assert_eq!(shape, [3, points, 3]);
     assert_eq!(values.len(), 3 * points * 3);
-    assert_eq!(stage.counts.len() as u64, summary["strands"].as_u64().unwrap());
+    assert_eq!(
+        stage.counts.len() as u64,
+        summary["strands"].as_u64().unwrap()
+    );
     assert_eq!(points as u64, summary["render_vertices"].as_u64().unwrap());
 
     // One animated BasisCurves prim: a time sample per frame, time code k + 1 after frame k.
