@@ -48,6 +48,22 @@ pub enum HairError {
     /// The collision layer rejected a mesh.
     #[error("collision: {0}")]
     Ssv(#[from] hair_ssv::SsvError),
+    /// The scene asks for a collision method its body cannot answer with: `Maps` reads
+    /// Kurihara's tables, which only the procedural `Head` has (others would silently fall back
+    /// to the exact query).
+    #[error(
+        "{file}: field `{field}`: `{method:?}` needs the cylinder and sphere tables only a `Head` body has, and the body is `{body}` (ask for `Bvh`, the exact query, or `Field`)"
+    )]
+    MethodUnavailable {
+        /// The scene file (or built-in name).
+        file: String,
+        /// Dotted path of the field: `collision.method`.
+        field: &'static str,
+        /// The method asked for.
+        method: hair_ssv::CollisionMethod,
+        /// The body's kind in the scene (`Obj`, `Torus`, `None`).
+        body: &'static str,
+    },
     /// The scene asks for something the pipeline does not do yet.
     #[error("not supported yet: {0}")]
     Unsupported(String),

@@ -75,61 +75,7 @@ impl Default for Scene {
     }
 }
 
-/// Thresholds of the LOD hierarchy (Ward & Lin §4-5; SI units). The defaults suit a human
-/// head of about 0.1 m radius.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct HierarchySpec {
-    /// Width across the scalp of a root strip (m).
-    pub root_strip_width: f32,
-    /// Extent of a row of root strips down the scalp (m).
-    pub root_strip_depth: f32,
-    /// Strips split in two until narrower than this (m).
-    pub strip_width_min: f32,
-    /// Clusters split into quadrants until their radius is under this (m).
-    pub cluster_radius_min: f32,
-    /// Fewest strands in a finest strand group where hair is most viewable (up and forward).
-    pub min_group_fine: u32,
-    /// Fewest strands in a finest strand group where hair is least viewable (the nape).
-    pub min_group_coarse: u32,
-}
-
-impl Default for HierarchySpec {
-    fn default() -> Self {
-        let d = hair_lod::HierarchyParams::default();
-        let (fine, coarse) = match d.min_group {
-            hair_lod::MinGroup::Regional { fine, coarse, .. } => (fine, coarse),
-            hair_lod::MinGroup::Uniform(n) => (n, n),
-        };
-        Self {
-            root_strip_width: d.root_strip_width,
-            root_strip_depth: d.root_strip_depth,
-            strip_width_min: d.strip_width_min,
-            cluster_radius_min: d.cluster_radius_min,
-            min_group_fine: fine,
-            min_group_coarse: coarse,
-        }
-    }
-}
-
-impl HierarchySpec {
-    /// The hair-lod parameters; `toward` is up and forward in the head frame (+y up, face +z).
-    pub fn params(&self) -> hair_lod::HierarchyParams {
-        hair_lod::HierarchyParams {
-            root_strip_width: self.root_strip_width,
-            root_strip_depth: self.root_strip_depth,
-            strip_width_min: self.strip_width_min,
-            cluster_radius_min: self.cluster_radius_min,
-            min_group: hair_lod::MinGroup::Regional {
-                fine: self.min_group_fine,
-                coarse: self.min_group_coarse,
-                toward: nalgebra::Vector3::new(0.0, 1.0, 1.0).normalize(),
-            },
-        }
-    }
-}
-
-pub use hair_lod::AdaptiveSettings;
+pub use hair_lod::{AdaptiveSettings, HierarchySpec};
 
 /// The body.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -553,6 +499,21 @@ impl Scene {
                     return Err(bad("hairstyle.File.points", "must be between 2 and 64"));
                 }
             }
+        }
+        let body = match self.body {
+            BodySpec::Head { .. } => "Head",
+            BodySpec::Obj { .. } => "Obj",
+            BodySpec::Torus { .. } => "Torus",
+            BodySpec::None => "None",
+        };
+        if self.collision.method == CollisionMethod::Maps && body != "Head" {
+            let (file, field, method) = (file.into(), "collision.method", CollisionMethod::Maps);
+            return Err(HairError::MethodUnavailable {
+                file,
+                field,
+                method,
+                body,
+            });
         }
         let d = &self.dynamics;
         positive("dynamics.linear_density", d.linear_density)?;

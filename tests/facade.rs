@@ -36,6 +36,58 @@ fn a_degenerate_obj_names_its_file_and_triangle() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `collision: (method: Maps)` on a body without Kurihara's tables (an OBJ mesh, the torus)
+/// used to run the exact query unasked; it is refused when the scene loads, naming the file and
+/// the field. The same scene asking for `Bvh`, and `Maps` on the procedural head, load.
+#[test]
+fn maps_asked_on_a_body_without_tables_is_refused_at_load() {
+    let dir = std::env::temp_dir().join(format!("hair-maps-obj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let tet = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    std::fs::write(dir.join("tet.obj"), tet).unwrap();
+    let obj = "Obj(path: \"tet.obj\", scale: 0.1, offset: (0.0, 0.0, 0.0))";
+    let torus = "Torus(center: (0.0, 0.0, 0.0), major: 0.2, minor: 0.05, wrinkles: 3, depth: 0.1)";
+    let scene = |body: &str, method: &str| {
+        format!("Scene(name: \"m\", body: {body}, collision: (method: {method}))")
+    };
+    for (body, kind) in [(obj, "Obj"), (torus, "Torus")] {
+        let path = dir.join(format!("{kind}.ron"));
+        std::fs::write(&path, scene(body, "Maps")).unwrap();
+        match Scene::load(path.to_str().unwrap()) {
+            Err(HairError::MethodUnavailable {
+                file,
+                field,
+                method,
+                body,
+            }) => {
+                assert_eq!(file, path.display().to_string());
+                assert_eq!(field, "collision.method");
+                assert_eq!(method, hair::scene::CollisionMethod::Maps);
+                assert_eq!(body, kind);
+            }
+            other => panic!("{kind}: expected MethodUnavailable, got {other:?}"),
+        }
+        let text = Scene::load(path.to_str().unwrap()).unwrap_err().to_string();
+        assert!(
+            text.contains(&*path.display().to_string()) && text.contains("collision.method"),
+            "{text}"
+        );
+        std::fs::write(&path, scene(body, "Bvh")).unwrap();
+        let loaded = Scene::load(path.to_str().unwrap()).unwrap();
+        assert_eq!(
+            loaded.scene.collision.method,
+            hair::scene::CollisionMethod::Bvh
+        );
+    }
+    let head = scene("Head(resolution: 16)", "Maps");
+    assert!(Scene::from_ron(&head, "head.ron").is_ok());
+    // No built-in scene asks for the impossible combination.
+    for (name, _) in hair::scene::BUILTIN {
+        Scene::load(name).unwrap();
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Draped hair keeps the styled segment lengths, and every point past the root lies outside
 /// the head body by at least a strand radius (straight hair from the same roots goes in).
 #[test]

@@ -7,6 +7,7 @@ mod accuracy;
 mod bench;
 mod chart;
 mod convert;
+mod export;
 mod hierarchy;
 mod render_check;
 mod run;

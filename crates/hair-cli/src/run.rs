@@ -41,6 +41,17 @@ pub struct Args {
     /// scene's own `collision.hair_hair`).
     #[arg(long)]
     pub hair_hair: Option<String>,
+    /// Write the body and the drawn strands of every frame to this USD stage (`.usda`): one
+    /// animated `BasisCurves` prim, time code `k + 1` after frame `k` at the scene's frame rate.
+    #[arg(long)]
+    pub usd: Option<PathBuf>,
+    /// Write the drawn strands' points of every frame to this NumPy file (float32, frames x
+    /// points x 3); with `--usd` and without this, beside the stage with its stem.
+    #[arg(long)]
+    pub positions: Option<PathBuf>,
+    /// Let `--usd` and `--positions` write over existing files (they are kept otherwise).
+    #[arg(long)]
+    pub replace: bool,
     /// The grid's pair-search kernel (from `HAIR_GRID_KERNEL`; every kernel finds the same
     /// pairs, so results do not depend on it).
     #[arg(skip)]
@@ -306,13 +317,26 @@ pub fn simulate(
 
 /// Runs the command.
 pub fn run(args: Args) -> Result<()> {
+    let export_paths =
+        crate::export::Paths::new(args.usd.as_deref(), args.positions.as_deref(), args.replace);
+    if let Some(paths) = &export_paths {
+        paths.prepare()?;
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut export: Option<crate::export::Export> = None;
     let renderer = args.render.then(hair_render::Renderer::new);
     if let Some(r) = &renderer {
         eprintln!("rendering with {}", r.describe());
     }
     let mut frame_out = |frame: u32, sim: &Simulation| -> Result<()> {
+        if let Some(paths) = &export_paths {
+            let writers = match &mut export {
+                Some(writers) => writers,
+                None => export.insert(crate::export::Export::create(paths, sim)?),
+            };
+            writers.write(frame, sim)?;
+        }
         let Some(r) = &renderer else { return Ok(()) };
         let scene = render_scene(sim);
         let settings = hair_render::RenderSettings {
@@ -325,6 +349,15 @@ pub fn run(args: Args) -> Result<()> {
         Ok(())
     };
     let (summary, metrics, _) = simulate(&args, std::io::stderr().is_terminal(), &mut frame_out)?;
+    if let Some(paths) = &export_paths {
+        let Some(writers) = export else {
+            anyhow::bail!("no frame was simulated: --usd and --positions wrote nothing");
+        };
+        let frames = writers.finish()?;
+        for path in paths.usd.iter().chain([&paths.positions]) {
+            eprintln!("wrote {} ({frames} frames)", path.display());
+        }
+    }
     let write = |name: &str, text: String| -> Result<()> {
         let path = args.out.join(name);
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
@@ -366,6 +399,9 @@ mod tests {
                 prefill_field: false,
                 grid_kernel: hair::grid::Kernel::Auto,
                 hair_hair: None,
+                usd: None,
+                positions: None,
+                replace: false,
             };
             let (summary, metrics, _) = simulate(&args, false, &mut |_, _| Ok(())).unwrap();
             assert_eq!(summary.pair_search_interval, interval);
@@ -397,6 +433,9 @@ mod tests {
             prefill_field: false,
             grid_kernel: hair::grid::Kernel::Auto,
             hair_hair: Some(model.into()),
+            usd: None,
+            positions: None,
+            replace: false,
         };
         let mut hashes = Vec::new();
         for model in ["volume", "pairs", "off"] {
@@ -435,6 +474,9 @@ mod tests {
                 prefill_field,
                 grid_kernel: hair::grid::Kernel::Auto,
                 hair_hair: None,
+                usd: None,
+                positions: None,
+                replace: false,
             };
             simulate(&args, false, &mut |_, _| Ok(())).unwrap().0
         };

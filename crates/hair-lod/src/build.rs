@@ -70,6 +70,64 @@ impl Default for HierarchyParams {
     }
 }
 
+/// Thresholds of the hierarchy as a scene file gives them (Ward & Lin §4-5; SI units), for
+/// [`HierarchyParams`]. The defaults suit a human head of about 0.1 m radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(deny_unknown_fields, default)
+)]
+pub struct HierarchySpec {
+    /// Width across the scalp of a root strip (m).
+    pub root_strip_width: f32,
+    /// Extent of a row of root strips down the scalp (m).
+    pub root_strip_depth: f32,
+    /// Strips split in two until narrower than this (m).
+    pub strip_width_min: f32,
+    /// Clusters split into quadrants until their radius is under this (m).
+    pub cluster_radius_min: f32,
+    /// Fewest strands in a finest strand group where hair is most viewable (up and forward).
+    pub min_group_fine: u32,
+    /// Fewest strands in a finest strand group where hair is least viewable (the nape).
+    pub min_group_coarse: u32,
+}
+
+impl Default for HierarchySpec {
+    fn default() -> Self {
+        let d = HierarchyParams::default();
+        let (fine, coarse) = match d.min_group {
+            MinGroup::Regional { fine, coarse, .. } => (fine, coarse),
+            MinGroup::Uniform(n) => (n, n),
+        };
+        Self {
+            root_strip_width: d.root_strip_width,
+            root_strip_depth: d.root_strip_depth,
+            strip_width_min: d.strip_width_min,
+            cluster_radius_min: d.cluster_radius_min,
+            min_group_fine: fine,
+            min_group_coarse: coarse,
+        }
+    }
+}
+
+impl HierarchySpec {
+    /// The hair-lod parameters; `toward` is up and forward in the head frame (+y up, face +z).
+    pub fn params(&self) -> HierarchyParams {
+        HierarchyParams {
+            root_strip_width: self.root_strip_width,
+            root_strip_depth: self.root_strip_depth,
+            strip_width_min: self.strip_width_min,
+            cluster_radius_min: self.cluster_radius_min,
+            min_group: MinGroup::Regional {
+                fine: self.min_group_fine,
+                coarse: self.min_group_coarse,
+                toward: Vector::new(0.0, 1.0, 1.0).normalize(),
+            },
+        }
+    }
+}
+
 impl HierarchyParams {
     /// Checks every threshold and their order.
     pub fn validate(&self) -> Result<(), LodError> {

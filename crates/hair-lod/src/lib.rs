@@ -7,7 +7,7 @@
 //! | item | what it is |
 //! |---|---|
 //! | [`Hairstyle`], [`Strand`] | the input: roots, root frames and points of every strand |
-//! | [`Hierarchy::build`], [`HierarchyParams`], [`MinGroup`] | the precomputed strip / cluster / strand-group forest (binary strip trees, quad-tree clusters and strand groups) |
+//! | [`Hierarchy::build`], [`HierarchyParams`], [`HierarchySpec`], [`MinGroup`] | the precomputed strip / cluster / strand-group forest (binary strip trees, quad-tree clusters and strand groups) |
 //! | [`Hierarchy`], [`NodeKind`], [`HierarchyStats`] | per node: kind, level, parent, children, strands, width or radius, offsets from the parent per control point; counts and bytes |
 //! | [`select`], [`SelectParams`], [`NodeInputs`], [`Activity`], [`Front`], [`Plan`] | the pure per-step decision: visibility, distance, speed and activity against per-level intervals |
 //! | [`apply`], [`split`], [`merge`], [`try_merge`], [`merge_check`], [`MergeParams`] | transitions that carry motion and properties |
@@ -88,7 +88,7 @@ pub use adaptive::{
     AdaptiveLod, AdaptiveSettings, BODY_DEPTH_SIZE, BodyDepth, HIDDEN_AFTER, HIDDEN_BEHIND,
     OccluderMesh, SPEED_HOLD, View,
 };
-pub use build::{HierarchyParams, MinGroup};
+pub use build::{HierarchyParams, HierarchySpec, MinGroup};
 pub use error::LodError;
 pub use hairstyle::{Hairstyle, Strand};
 pub use hierarchy::{Hierarchy, HierarchyStats, LevelCount, NO_PARENT, NodeKind};
