@@ -736,7 +736,10 @@ fn draw(
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
             if model == xpbd_peer::NAME {
                 chart
-                    .draw_series(xy.iter().map(|&p| TriangleMarker::new(p, 6, colour.filled())))
+                    .draw_series(
+                        xy.iter()
+                            .map(|&p| TriangleMarker::new(p, 6, colour.filled())),
+                    )
                     .map_err(err)?;
             } else {
                 chart

@@ -246,7 +246,8 @@ fn run_cell(
                 break;
             }
             Err(e) => {
-                return Err(e).with_context(|| format!("{} k={k} dt={dt}: step {s}", method.name()));
+                return Err(e)
+                    .with_context(|| format!("{} k={k} dt={dt}: step {s}", method.name()));
             }
         }
         let (speed, finite) = stepper.peak_speed();

@@ -68,7 +68,9 @@ impl Stepper {
                     ..settings
                 },
             ),
-            Method::Xpbd => Stepper::Xpbd(Box::new(XpbdStrands::from_state(&state)), self::settings()),
+            Method::Xpbd => {
+                Stepper::Xpbd(Box::new(XpbdStrands::from_state(&state)), self::settings())
+            }
         }
     }
 
@@ -84,10 +86,10 @@ impl Stepper {
     pub fn position(&self, i: usize) -> nalgebra::Vector3<f64> {
         let p = match self {
             Stepper::Ours(state, _) => state.positions()[i].coords,
-            Stepper::Xpbd(strands, _) => strands.positions().nth(i).map_or_else(
-                || nalgebra::Vector3::repeat(f32::NAN),
-                |p| p.coords,
-            ),
+            Stepper::Xpbd(strands, _) => strands
+                .positions()
+                .nth(i)
+                .map_or_else(|| nalgebra::Vector3::repeat(f32::NAN), |p| p.coords),
         };
         p.map(f64::from)
     }

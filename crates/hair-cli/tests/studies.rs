@@ -77,7 +77,10 @@ fn stability_maps_the_second_order_steps_and_xpbd() {
     }
     // A soft strand: XPBD stays finite at every step, as the L-stable steps do.
     let xpbd = method(&doc, "xpbd")["cells"].as_array().unwrap();
-    assert!(xpbd.iter().all(|c| c["non_finite_at"].is_null()), "{xpbd:?}");
+    assert!(
+        xpbd.iter().all(|c| c["non_finite_at"].is_null()),
+        "{xpbd:?}"
+    );
     assert!(is_png(&png));
 }
 
@@ -124,7 +127,10 @@ fn accuracy_runs_xpbd_at_a_hundredth_and_on_the_elastica() {
                 row["tip_x_over_l"].as_f64().unwrap(),
                 row["tip_y_over_l"].as_f64().unwrap(),
             );
-            assert!(y > 0.0 && x.hypot(y) <= 1.0 + 1e-3, "{model} {alpha}: {x}, {y}");
+            assert!(
+                y > 0.0 && x.hypot(y) <= 1.0 + 1e-3,
+                "{model} {alpha}: {x}, {y}"
+            );
         }
     }
     assert!(is_png(&png));

@@ -81,7 +81,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         anyhow::ensure!(
             methods.iter().any(|m| m.name() == name),
             "unknown integrator `{name}` (expected one of {})",
-            methods.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+            methods
+                .iter()
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     let chosen: Vec<Method> = methods
@@ -91,8 +95,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut benches = Vec::new();
     // The coupled step twice: by its structured solve and by the dense LU it replaced (the peer).
     let variants = chosen.iter().flat_map(|&method| {
-        let dense = (method == Method::Ours(Integrator::ImplicitCoupled))
-            .then_some(LinearSolver::Hand);
+        let dense =
+            (method == Method::Ours(Integrator::ImplicitCoupled)).then_some(LinearSolver::Hand);
         std::iter::once((method, LinearSolver::Structured))
             .chain(dense.map(|solver| (method, solver)))
     });
