@@ -145,8 +145,8 @@ pub const SETTLE_DAMPING: f32 = 20.0;
 
 /// XPBD's rest state of `state` under `env`: steps of `dt` with [`settings`] and
 /// [`SETTLE_DAMPING`] until the last node moves less than `tolerance` (m) in each of 30 steps in
-/// a row, at most `max_steps`. Returns the last node's position and the steps taken (`None` when it never came
-/// to rest).
+/// a row, at most `max_steps`. Returns the last node's position and the steps taken (`None`
+/// when it never came to rest).
 pub fn settle(
     state: &StrandState,
     env: &Environment,
