@@ -5,10 +5,11 @@
 //! every 1/25 s with an f64 RK4 reference at 1e-5 s (checked against the same at 2e-5 s). The
 //! error is the RMS over those samples of the tip's distance to the reference tip; the cost is the
 //! wall time of the f32 run in milliseconds per simulated second (one strand, one thread, best of
-//! several repeats).
+//! several repeats). The engines' XPBD ([`crate::xpbd_peer`]) runs the same strand beside them.
 //!
 //! Statics: a strand clamped horizontally and sagging under its own weight, relaxed to equilibrium
-//! in f64 for the chain and the local torque models, beside the elastica's shooting solution.
+//! in f64 for the chain and the local torque models, and XPBD's rest state at 1/60 s steps, beside
+//! the elastica's shooting solution.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -25,6 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::strand_setup::{self, Damping};
+use crate::xpbd_peer::{self, Method, Stepper};
 
 /// Arguments of `hair accuracy`.
 #[derive(Debug, clap::Args)]
@@ -47,6 +49,12 @@ pub struct Args {
     /// Timed repeats of each f32 run (the fastest is kept).
     #[arg(long, default_value_t = 5)]
     pub repeat: usize,
+    /// Only these time steps, as steps per second (multiples of 25); all eight when not given.
+    #[arg(long)]
+    pub steps_per_second: Vec<u32>,
+    /// Only these segment counts in the elastica table; 8, 16, 32 and 64 when not given.
+    #[arg(long)]
+    pub segments: Vec<usize>,
 }
 
 /// Time steps of the study as steps per second: each divides the sampling interval.
@@ -120,6 +128,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "--reference-dt must be in (0, 1e-3] s"
     );
     let damping = Damping::Ratio(args.damping_ratio as Real);
+    anyhow::ensure!(
+        args.steps_per_second
+            .iter()
+            .all(|s| *s >= SAMPLES_PER_SECOND && s % SAMPLES_PER_SECOND == 0),
+        "--steps-per-second must be multiples of {SAMPLES_PER_SECOND}"
+    );
+    anyhow::ensure!(
+        args.segments.iter().all(|s| (1..=1000).contains(s)),
+        "--segments must be in 1..=1000"
+    );
+    let steps_per_second = if args.steps_per_second.is_empty() {
+        STEPS_PER_SECOND.to_vec()
+    } else {
+        args.steps_per_second.clone()
+    };
+    let segments = if args.segments.is_empty() {
+        SEGMENTS.to_vec()
+    } else {
+        args.segments.clone()
+    };
     let started = Instant::now();
 
     // The elastica runs beside the reference trajectories (both are single-threaded jobs).
@@ -130,7 +158,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 || reference_trajectory(args.k, damping, 2.0 * args.reference_dt),
             )
         },
-        elastica_table,
+        || elastica_table(&segments),
     );
     let (reference, check) = (reference?, check?);
     let elastica = elastica?;
@@ -143,11 +171,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // Timed f32 runs, one at a time so they do not compete for the cores.
     let mut integrators = Vec::new();
-    for integrator in Integrator::ALL {
+    for method in Method::all() {
         let mut runs = Vec::new();
-        for sps in STEPS_PER_SECOND {
+        for &sps in &steps_per_second {
             runs.push(timed_run(
-                integrator,
+                method,
                 sps,
                 args.k,
                 damping,
@@ -156,12 +184,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             )?);
         }
         integrators.push(IntegratorRuns {
-            name: integrator.name(),
+            name: method.name(),
             runs,
         });
     }
 
-    print_tables(&integrators, &elastica);
+    print_tables(&integrators, &elastica, &steps_per_second);
     println!("accuracy study in {:.1} s", started.elapsed().as_secs_f64());
 
     if let Some(path) = &args.json {
@@ -180,6 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "duration_s": strand_setup::DURATION,
                 "samples": "tip position every 1/25 s, t = 0.04 .. 2 s",
                 "cost": "wall time of one strand on one thread, best of repeats, ms per simulated second",
+                "xpbd": "the same strand as XPBD particles (XpbdStrands::from_state): 5 substeps x 5 Gauss-Seidel iterations per step, inextensible, bend compliance 1/k, no damping (the joint damping has no XPBD counterpart)",
             }),
             reference: serde_json::json!({
                 "integrator": "rk4",
@@ -188,7 +217,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "rms_tip_difference_to_double_dt_m": convergence,
             }),
             integrators: integrators.clone(),
-            elastica_method: "strand of n segments (n + 1 points, trapezoid-lumped masses, 2 EI/d on the root joint and EI/d elsewhere) clamped along +x, gravity -y, EI = rho g L^3 / alpha, rho = 0.02 kg/m, L = 0.25 m; static equilibrium in f64 by ReferenceStrand::relax (pseudo-transient Newton on the coupled implicit step, tolerance 1e-12 rad) with the load ramped through alpha = 1, 2, 5, 10, 20, 50, 100 (relaxing straight to alpha = 100 diverges); reference: elastica_tip (shooting); y downward",
+            elastica_method: "strand of n segments (n + 1 points, trapezoid-lumped masses, 2 EI/d on the root joint and EI/d elsewhere) clamped along +x, gravity -y, EI = rho g L^3 / alpha, rho = 0.02 kg/m, L = 0.25 m; static equilibrium in f64 by ReferenceStrand::relax (pseudo-transient Newton on the coupled implicit step, tolerance 1e-12 rad) with the load ramped through alpha = 1, 2, 5, 10, 20, 50, 100 (relaxing straight to alpha = 100 diverges); model xpbd: the same strand as XPBD particles at 1/60 s steps of 5 substeps x 5 iterations, damped at 20/s until the tip moved under 1e-6 L in each of 30 steps in a row (iterations = those steps; null: not at rest after 60 s); reference: elastica_tip (shooting); y downward",
             elastica: elastica.clone(),
         };
         strand_setup::write_json(path, &report)?;
@@ -287,7 +316,7 @@ fn rms_distance(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
 
 /// One f32 run of the standard strand, timed; errors against the reference tips.
 fn timed_run(
-    integrator: Integrator,
+    method: Method,
     steps_per_second: u32,
     k: f64,
     damping: Damping,
@@ -298,7 +327,7 @@ fn timed_run(
     let dt = 1.0 / f64::from(steps_per_second);
     let settings = StepSettings {
         dt: dt as Real,
-        integrator,
+        integrator: Integrator::ImplicitCoupled,
         torque: TorqueModel::Chain,
         solver: LinearSolver::Structured,
     };
@@ -309,28 +338,28 @@ fn timed_run(
     let mut expected = Vec::with_capacity(samples);
     let mut non_finite_at = None;
     for _ in 0..repeat {
-        let (mut state, id) = strand_setup::single_strand(k as Real, damping)?;
+        let (state, id) = strand_setup::single_strand(k as Real, damping)?;
         let tip = state.nodes(id).end - 1;
+        let mut stepper = Stepper::new(method, state, settings);
         tips.clear();
         expected.clear();
         non_finite_at = None;
         let clock = Instant::now();
         'run: for sample in 0..samples {
             for s in 0..per_sample {
-                match state.step(&env, &settings) {
-                    Ok(_) => {}
+                match stepper.step(&env, settings.dt) {
+                    Ok(()) => {}
                     Err(DynamicsError::NonFiniteState { .. }) => {
                         let steps = sample as u32 * per_sample + s + 1;
                         non_finite_at = Some(f64::from(steps) * dt);
                         break 'run;
                     }
                     Err(e) => {
-                        return Err(e).with_context(|| format!("{} dt={dt}", integrator.name()));
+                        return Err(e).with_context(|| format!("{} dt={dt}", method.name()));
                     }
                 }
             }
-            let p = state.positions()[tip];
-            tips.push(Vector3::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)));
+            tips.push(stepper.position(tip));
             // The time actually simulated: whole steps of the f32 step.
             let steps = f64::from((sample as u32 + 1) * per_sample);
             expected.push(reference.at(steps * f64::from(settings.dt)));
@@ -370,19 +399,44 @@ const ALPHAS: [f64; 3] = [1.0, 10.0, 100.0];
 /// Segment counts of the elastica table.
 const SEGMENTS: [usize; 4] = [8, 16, 32, 64];
 
-/// Every (alpha, segments, model) equilibrium, in parallel.
-fn elastica_table() -> anyhow::Result<Vec<Elastica>> {
+/// Every (alpha, segments, model) equilibrium, in parallel; `None` is XPBD.
+fn elastica_table(segments: &[usize]) -> anyhow::Result<Vec<Elastica>> {
     let mut jobs = Vec::new();
     for alpha in ALPHAS {
-        for segments in SEGMENTS {
-            for model in [TorqueModel::Chain, TorqueModel::Local] {
+        for &segments in segments {
+            for model in [Some(TorqueModel::Chain), Some(TorqueModel::Local), None] {
                 jobs.push((alpha, segments, model));
             }
         }
     }
     jobs.par_iter()
-        .map(|&(a, s, m)| elastica(a, s, m))
+        .map(|&(a, s, m)| match m {
+            Some(m) => elastica(a, s, m),
+            None => xpbd_elastica(a, s),
+        })
         .collect()
+}
+
+/// XPBD's rest state of the clamped strand ([`xpbd_peer::settle`] at 1/60 s, up to 60 s).
+fn xpbd_elastica(alpha: f64, segments: usize) -> anyhow::Result<Elastica> {
+    let length = f64::from(strand_setup::LENGTH);
+    let (state, _) = clamped_strand(alpha, segments)?;
+    let env = strand_setup::environment();
+    let (tip, steps) = xpbd_peer::settle(&state, &env, 1.0 / 60.0, 3600, 1e-6 * length)
+        .with_context(|| format!("xpbd cantilever alpha {alpha}, {segments} segments"))?;
+    let (rx, ry) = elastica_tip(alpha);
+    let (x, y) = (tip.x / length, -tip.y / length);
+    Ok(Elastica {
+        alpha,
+        segments,
+        model: xpbd_peer::NAME,
+        tip_x_over_l: x,
+        tip_y_over_l: y,
+        reference_tip_x_over_l: rx,
+        reference_tip_y_over_l: ry,
+        tip_error_over_l: (x - rx).hypot(y - ry),
+        iterations: steps,
+    })
 }
 
 /// A strand of `segments` segments clamped along +x at the origin, gravity -y, relaxed to rest.
@@ -486,10 +540,10 @@ fn clamped_strand(
     Ok((state, id))
 }
 
-fn print_tables(integrators: &[IntegratorRuns], elastica: &[Elastica]) {
+fn print_tables(integrators: &[IntegratorRuns], elastica: &[Elastica], steps_per_second: &[u32]) {
     println!("\nRMS tip error (m) / cost (ms per simulated second)");
     print!("{:>18}", "dt (s)");
-    for sps in STEPS_PER_SECOND {
+    for sps in steps_per_second {
         print!(" {:>17}", format!("1/{sps}"));
     }
     println!();
@@ -524,8 +578,8 @@ fn print_tables(integrators: &[IntegratorRuns], elastica: &[Elastica]) {
     }
 }
 
-/// Distinct colours of the integrators, in [`Integrator::ALL`] order.
-const COLOURS: [RGBColor; 7] = [
+/// Distinct colours of the methods, in [`Method::all`] order (XPBD last, in black).
+const COLOURS: [RGBColor; 8] = [
     RGBColor(214, 39, 40),
     RGBColor(255, 127, 14),
     RGBColor(31, 119, 180),
@@ -533,6 +587,7 @@ const COLOURS: [RGBColor; 7] = [
     RGBColor(44, 160, 44),
     RGBColor(140, 86, 75),
     RGBColor(23, 190, 207),
+    RGBColor(0, 0, 0),
 ];
 
 fn err(e: impl std::fmt::Display) -> anyhow::Error {
@@ -640,7 +695,7 @@ fn draw(
     let e_range = decades(elastica.iter().map(|e| e.tip_error_over_l.max(1e-8)));
     let mut chart = ChartBuilder::on(&panels[2])
         .caption(
-            "Cantilever under self-weight: tip error / L",
+            "Cantilever under self-weight: tip error / L (xpbd: triangles)",
             ("sans-serif", 20),
         )
         .margin(15)
@@ -663,25 +718,34 @@ fn draw(
         RGBColor(44, 160, 44),
     ];
     for (alpha, colour) in ALPHAS.iter().zip(alpha_colours) {
-        for model in ["chain", "local"] {
+        for model in ["chain", "local", xpbd_peer::NAME] {
             let xy: Vec<(f64, f64)> = elastica
                 .iter()
                 .filter(|e| e.alpha == *alpha && e.model == model)
                 .map(|e| (e.segments as f64, e.tip_error_over_l.max(1e-8)))
                 .collect();
-            let style = if model == "chain" {
-                colour.stroke_width(2)
-            } else {
-                colour.mix(0.5).stroke_width(1)
+            let style = match model {
+                "chain" => colour.stroke_width(2),
+                "local" => colour.mix(0.5).stroke_width(1),
+                _ => colour.mix(0.8).stroke_width(3),
             };
             chart
                 .draw_series(LineSeries::new(xy.clone(), style))
                 .map_err(err)?
                 .label(format!("alpha {alpha}, {model}"))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            chart
-                .draw_series(xy.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                .map_err(err)?;
+            if model == xpbd_peer::NAME {
+                chart
+                    .draw_series(
+                        xy.iter()
+                            .map(|&p| TriangleMarker::new(p, 6, colour.filled())),
+                    )
+                    .map_err(err)?;
+            } else {
+                chart
+                    .draw_series(xy.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                    .map_err(err)?;
+            }
         }
     }
     chart

@@ -16,6 +16,7 @@ mod stability;
 mod strand_setup;
 mod study;
 mod view;
+mod xpbd_peer;
 
 use clap::{Parser, Subcommand};
 use hair_grid::Kernel;

@@ -3,12 +3,15 @@
 //! Each cell simulates the standard strand ([`crate::strand_setup`]: 20 points, 25 cm, released at
 //! 60 degrees, light damping) for 2 s. A cell is stable when every value stays finite and the
 //! motion does not grow: the peak node speed in the last second is no higher than in the first,
-//! and never above 50 m/s.
+//! and never above 50 m/s. The engines' XPBD ([`crate::xpbd_peer`]) runs the same strand and
+//! cells beside our integrators.
 
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 use hair::dynamics::{DynamicsError, Integrator, LinearSolver, Real, StepSettings, TorqueModel};
+
+use crate::xpbd_peer::{Method, Stepper};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -30,6 +33,9 @@ pub struct Args {
     /// Stiffness values per decade.
     #[arg(long, default_value_t = 3)]
     pub k_per_decade: usize,
+    /// Decades of stiffness the sweep spans.
+    #[arg(long, default_value_t = 6)]
+    pub decades: usize,
     /// Damping ratio of each joint's stiffest mode, spring and gravity together:
     /// `gamma = 2 zeta sqrt((k + M g d) m d^2)`, `M` the mass beyond the joint.
     #[arg(long, default_value_t = 0.05)]
@@ -80,7 +86,7 @@ pub const ENERGY_TOLERANCE: f64 = 0.05;
 /// All cells of one integrator.
 #[derive(Clone, Debug, Serialize)]
 pub struct IntegratorMap {
-    /// Integrator name (`explicit_euler`, ...).
+    /// Integrator name (`explicit_euler`, ..., `implicit_ros2`, `implicit_ros3`, `xpbd`).
     pub name: &'static str,
     /// How many cells are stable.
     pub stable_cells: usize,
@@ -109,8 +115,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.k_min_log10.is_finite(), "--k-min-log10 must be finite");
     let ks = strand_setup::log_space(
         args.k_min_log10,
-        args.k_min_log10 + 6.0,
-        6 * args.k_per_decade + 1,
+        args.k_min_log10 + args.decades as f64,
+        args.decades * args.k_per_decade + 1,
     );
     let damping = match args.damping_fixed {
         Some(g) => Damping::Fixed(g as Real),
@@ -177,26 +183,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Simulates every cell of every integrator, in parallel over cells.
+/// Simulates every cell of every method (our integrators and XPBD), in parallel over cells.
 pub fn sweep(ks: &[f64], damping: Damping) -> anyhow::Result<Vec<IntegratorMap>> {
-    let jobs: Vec<(usize, f64, u32)> = Integrator::ALL
+    let methods = Method::all();
+    let jobs: Vec<(Method, f64, u32)> = methods
         .iter()
-        .enumerate()
-        .flat_map(|(i, _)| {
+        .flat_map(|&m| {
             ks.iter()
-                .flat_map(move |&k| STEPS_PER_SECOND.iter().map(move |&s| (i, k, s)))
+                .flat_map(move |&k| STEPS_PER_SECOND.iter().map(move |&s| (m, k, s)))
         })
         .collect();
     let cells: Vec<Cell> = jobs
         .par_iter()
-        .map(|&(i, k, sps)| run_cell(Integrator::ALL[i], k, sps, damping))
+        .map(|&(m, k, sps)| run_cell(m, k, sps, damping))
         .collect::<anyhow::Result<_>>()?;
     let per = ks.len() * STEPS_PER_SECOND.len();
-    Ok(Integrator::ALL
+    Ok(methods
         .iter()
         .zip(cells.chunks(per))
-        .map(|(integ, chunk)| IntegratorMap {
-            name: integ.name(),
+        .map(|(method, chunk)| IntegratorMap {
+            name: method.name(),
             stable_cells: chunk.iter().filter(|c| c.stable).count(),
             energy_gaining_cells: chunk
                 .iter()
@@ -209,57 +215,48 @@ pub fn sweep(ks: &[f64], damping: Damping) -> anyhow::Result<Vec<IntegratorMap>>
 
 /// One 2 s run of the standard strand.
 fn run_cell(
-    integrator: Integrator,
+    method: Method,
     k: f64,
     steps_per_second: u32,
     damping: Damping,
 ) -> anyhow::Result<Cell> {
-    let (mut state, _) = strand_setup::single_strand(k as Real, damping)?;
+    let (state, _) = strand_setup::single_strand(k as Real, damping)?;
     let env = strand_setup::environment();
     let dt = 1.0 / f64::from(steps_per_second);
     let settings = StepSettings {
         dt: dt as Real,
-        integrator,
+        integrator: Integrator::ImplicitCoupled,
         torque: TorqueModel::Chain,
         solver: LinearSolver::Structured,
     };
+    let mut stepper = Stepper::new(method, state, settings);
     let steps = (strand_setup::DURATION * f64::from(steps_per_second)).round() as u32;
     let (mut first, mut last, mut peak) = (0.0f64, 0.0f64, 0.0f64);
-    let energy0 = state.model_energy(&env, TorqueModel::Chain);
+    let energy0 = stepper.energy(&env);
     let mut energy_max = energy0;
     let weight_length = f64::from(strand_setup::LINEAR_DENSITY * strand_setup::LENGTH)
         * f64::from(strand_setup::GRAVITY)
         * f64::from(strand_setup::LENGTH);
     let mut non_finite_at = None;
     for s in 0..steps {
-        match state.step(&env, &settings) {
-            Ok(_) => {}
+        match stepper.step(&env, dt as Real) {
+            Ok(()) => {}
             Err(DynamicsError::NonFiniteState { .. }) => {
                 non_finite_at = Some(f64::from(s + 1) * dt);
                 break;
             }
             Err(e) => {
                 return Err(e)
-                    .with_context(|| format!("{} k={k} dt={dt}: step {s}", integrator.name()));
+                    .with_context(|| format!("{} k={k} dt={dt}: step {s}", method.name()));
             }
         }
-        let mut speed = 0.0f64;
-        let mut finite = true;
-        for v in state.velocities() {
-            let n = f64::from(v.norm());
-            finite &= n.is_finite();
-            speed = speed.max(n);
-        }
-        finite &= state
-            .positions()
-            .iter()
-            .all(|p| p.coords.iter().all(|c| c.is_finite()));
+        let (speed, finite) = stepper.peak_speed();
         if !finite {
             non_finite_at = Some(f64::from(s + 1) * dt);
             break;
         }
         peak = peak.max(speed);
-        let energy = state.model_energy(&env, TorqueModel::Chain);
+        let energy = stepper.energy(&env);
         if energy.is_finite() {
             energy_max = energy_max.max(energy);
         }

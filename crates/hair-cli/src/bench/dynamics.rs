@@ -6,6 +6,9 @@
 //! 1 ms step at which every integrator stays finite for the length of the measurement. After a
 //! warm-up, rounds of timed batches visit every integrator in turn and the fastest batch of each is
 //! kept, so load from other processes on the shared machine falls on all integrators alike.
+//!
+//! The engines' XPBD ([`crate::xpbd_peer`]: 5 substeps x 5 iterations a step) runs on the same
+//! strands under the key `xpbd`; a node-step is one particle advanced by one whole step.
 
 use std::time::Instant;
 
@@ -19,6 +22,7 @@ use nalgebra::{Rotation3, Unit};
 use serde_json::{Map, Value, json};
 
 use crate::strand_setup::{self, Damping};
+use crate::xpbd_peer::{Method, Stepper};
 
 /// Arguments of `hair bench dynamics`.
 #[derive(Debug, clap::Args)]
@@ -38,7 +42,8 @@ pub struct Args {
     /// Joint stiffness (N m / rad).
     #[arg(long, default_value_t = 1e-4)]
     pub k: f64,
-    /// Measure only these integrators (by name, e.g. `implicit_angular`); all when not given.
+    /// Measure only these integrators (by name, e.g. `implicit_angular`, `xpbd`); all when not
+    /// given.
     #[arg(long)]
     pub only: Vec<String>,
 }
@@ -71,33 +76,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .build()
         .context("building a one-thread pool")?;
     let env = strand_setup::environment();
+    let methods = Method::all();
     for name in &args.only {
         anyhow::ensure!(
-            Integrator::ALL.iter().any(|i| i.name() == name),
+            methods.iter().any(|m| m.name() == name),
             "unknown integrator `{name}` (expected one of {})",
-            Integrator::ALL.map(|i| i.name()).join(", ")
+            methods
+                .iter()
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
-    let chosen: Vec<Integrator> = Integrator::ALL
+    let chosen: Vec<Method> = methods
         .into_iter()
-        .filter(|i| args.only.is_empty() || args.only.iter().any(|n| n == i.name()))
+        .filter(|m| args.only.is_empty() || args.only.iter().any(|n| n == m.name()))
         .collect();
     let mut benches = Vec::new();
     // The coupled step twice: by its structured solve and by the dense LU it replaced (the peer).
-    let variants = chosen.iter().flat_map(|&integrator| {
-        let dense = (integrator == Integrator::ImplicitCoupled).then_some(LinearSolver::Hand);
-        std::iter::once((integrator, LinearSolver::Structured))
-            .chain(dense.map(|solver| (integrator, solver)))
+    let variants = chosen.iter().flat_map(|&method| {
+        let dense =
+            (method == Method::Ours(Integrator::ImplicitCoupled)).then_some(LinearSolver::Hand);
+        std::iter::once((method, LinearSolver::Structured))
+            .chain(dense.map(|solver| (method, solver)))
     });
-    for (integrator, solver) in variants {
+    for (method, solver) in variants {
+        let settings = StepSettings {
+            dt: args.dt as Real,
+            integrator: Integrator::ImplicitCoupled,
+            torque: TorqueModel::Chain,
+            solver,
+        };
         benches.push(Bench {
-            settings: StepSettings {
-                dt: args.dt as Real,
-                integrator,
-                torque: TorqueModel::Chain,
-                solver,
-            },
-            state: build(args.skeletons, args.k)?,
+            label: label(method, solver),
+            dt: args.dt as Real,
+            stepper: Stepper::new(method, build(args.skeletons, args.k)?, settings),
             batch: 1,
             non_finite_steps: 0,
         });
@@ -109,7 +122,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .zip(one_thread.iter().zip(&all_threads))
         .map(|(b, (&one_thread, &all_threads))| {
             (
-                label(b.settings.integrator, b.settings.solver),
+                b.label.clone(),
                 Throughput {
                     one_thread,
                     all_threads,
@@ -133,7 +146,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // How many times faster the structured solve makes the coupled step than the dense LU.
     let speedup = rate(Integrator::ImplicitCoupled.name())
         .zip(rate(&label(
-            Integrator::ImplicitCoupled,
+            Method::Ours(Integrator::ImplicitCoupled),
             LinearSolver::Hand,
         )))
         .map(|(s, d)| (s.0 / d.0, s.1 / d.1));
@@ -175,6 +188,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "k_n_m_per_rad": args.k,
                 "torque": "chain",
                 "node_step": "one node of one skeleton advanced by one step; root nodes count",
+                "xpbd": "XpbdStrands::from_state of the same strands; one step = 5 substeps x 5 Gauss-Seidel iterations, inextensible, bend compliance 1/k, undamped",
                 "timing": "after warm-up, four rounds each timing one batch of about batch_seconds of every integrator in turn; the fastest batch of each is kept",
             }),
         );
@@ -249,26 +263,27 @@ fn build(count: usize, k: f64) -> anyhow::Result<StrandState> {
 
 /// One integrator's state and settings during the measurement.
 struct Bench {
-    settings: StepSettings,
-    state: StrandState,
+    label: String,
+    dt: Real,
+    stepper: Stepper,
     /// Steps per timed batch.
     batch: usize,
     non_finite_steps: usize,
 }
 
-/// An integrator's name, with the solver's where it is not the default.
-fn label(integrator: Integrator, solver: LinearSolver) -> String {
-    if solver == LinearSolver::default() {
-        integrator.name().to_string()
+/// A method's name, with the solver's where it is not the default.
+fn label(method: Method, solver: LinearSolver) -> String {
+    if solver == LinearSolver::default() || method == Method::Xpbd {
+        method.name().to_string()
     } else {
-        format!("{}_{}", integrator.name(), solver.name())
+        format!("{}_{}", method.name(), solver.name())
     }
 }
 
 impl Bench {
     fn step(&mut self, env: &Environment) -> anyhow::Result<()> {
-        match self.state.step(env, &self.settings) {
-            Ok(_) => Ok(()),
+        match self.stepper.step(env, self.dt) {
+            Ok(()) => Ok(()),
             Err(DynamicsError::NonFiniteState { .. }) => {
                 // The skeleton was restored; the step still cost a step.
                 self.non_finite_steps += 1;
@@ -310,6 +325,6 @@ fn measure_all(args: &Args, env: &Environment, benches: &mut [Bench]) -> anyhow:
     Ok(benches
         .iter()
         .zip(best)
-        .map(|(b, t)| b.state.node_count() as f64 / t)
+        .map(|(b, t)| b.stepper.node_count() as f64 / t)
         .collect())
 }
