@@ -16,8 +16,9 @@
 //! | [`CpuRenderer`] | the CPU reference (rayon): `render_to_image`, `opacity_maps` |
 //! | [`OpacityMaps`], [`OsmPlanes`], [`hat_weights`] | the 16 maps, their planes and the hat reconstruction |
 //! | [`mod@geometry`] | Catmull-Rom subdivision, strand groups, ribbon vertices |
-//! | [`follow`] | strands that follow skeletons: transport frames, Catmull-Rom curves through control points |
+//! | [`follow`] | strands that follow skeletons: transport frames, Catmull-Rom curves through control points and their output, [`follow::RenderGeometry`] |
 //! | [`mod@shading`] | the two-highlight hair model on the CPU |
+//! | `stage` (feature `stage`) | the `hair` simulation's render stage: drawn strands around its skeletons |
 //! | [`compare`] | image statistics for GPU/CPU comparisons |
 //! | `test_scenes` (feature `test-support`) | a procedural head with hanging hair for tests, benches and demos |
 //!
@@ -75,6 +76,8 @@ mod gpu;
 mod osm;
 mod scene;
 pub mod shading;
+#[cfg(feature = "stage")]
+pub mod stage;
 #[cfg(feature = "test-support")]
 pub mod test_scenes;
 
