@@ -161,6 +161,7 @@ impl Simulation {
             .flat_map(|st| st.points.iter().copied());
         let mut drawn = DrawnStrands::new(strand_rest.collect(), per, 3);
         drawn.prepare(&hierarchy, &state, &front_nodes);
+        drawn.set_followers(scene.render_strands as usize, scene.seed);
         let salon = Salon::new(&scene.tools, &state, &hierarchy, &node_radius);
         let lod = LodStage::new(policy, &scene, &hierarchy, &mut state)?;
         let settings = scene

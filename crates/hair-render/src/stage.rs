@@ -7,6 +7,7 @@
 
 pub use crate::follow::RenderGeometry;
 use crate::follow::{catmull_rom, catmull_rom_into, transport_frames, transport_frames_into};
+use crate::guides::Followers;
 use crate::{Point, Real, Vector};
 use hair_dynamics::{HeadMotion, SkeletonId, StrandState};
 use hair_lod::Hierarchy;
@@ -15,7 +16,8 @@ use rayon::prelude::*;
 
 /// The render stage: every rendered strand follows the front node that holds it, at its
 /// offsets from that node's control points in their transport frames, drawn as a Catmull-Rom
-/// curve in world coordinates; cuts end strands and fallen pieces are drawn.
+/// curve in world coordinates; cuts end strands and fallen pieces are drawn. With followers
+/// ([`DrawnStrands::set_followers`]) the strands are guides and the output is their followers.
 /// Buffers are reused: an update allocates nothing once grown.
 #[derive(Clone, Debug)]
 pub struct DrawnStrands {
@@ -46,6 +48,9 @@ pub struct DrawnStrands {
     /// The strands' curves in `strand_order`, before they are copied out in strand order.
     render_scratch: Vec<Point>,
     cuts: CutRender,
+    /// The strands' followers, if the strands are guides, and the rotation of the last update.
+    followers: Option<Followers>,
+    rotation: Matrix3<Real>,
 }
 
 impl DrawnStrands {
@@ -69,12 +74,48 @@ impl DrawnStrands {
             strand_rank: Vec::new(),
             render_scratch: Vec::new(),
             cuts: CutRender::default(),
+            followers: None,
+            rotation: Matrix3::identity(),
         }
     }
 
-    /// What is drawn: the strands' polylines.
+    /// From now on the strands are guides and the output is `count` followers of them, sampled
+    /// deterministically from `seed` ([`crate::guides::sample_links`]); `count` 0 draws the
+    /// strands themselves again. Call before the next update.
+    pub fn set_followers(&mut self, count: usize, seed: u64) {
+        if count == 0 {
+            self.followers = None;
+            return;
+        }
+        let per = self.per.max(1);
+        let roots: Vec<Point> = self.strand_rest.iter().step_by(per).copied().collect();
+        let links = crate::guides::sample_links(&roots, count, seed);
+        let sub = self.geometry.subdivisions;
+        self.followers = Some(Followers::new(&self.strand_rest, per, links, sub));
+    }
+
+    /// The followers, if the strands are guides.
+    pub fn followers(&self) -> Option<&Followers> {
+        self.followers.as_ref()
+    }
+
+    /// What is drawn: the followers' polylines if the strands are guides, else the strands'.
     pub fn output(&self) -> &RenderGeometry {
+        self.followers
+            .as_ref()
+            .map_or(&self.geometry, |f| &f.geometry)
+    }
+
+    /// The strands' own polylines (the guides' when there are followers).
+    pub fn strands(&self) -> &RenderGeometry {
         &self.geometry
+    }
+
+    /// The followers again from the strands as drawn.
+    fn follow(&mut self) {
+        if let Some(f) = &mut self.followers {
+            f.update(&self.geometry, &self.rotation);
+        }
     }
 
     /// Every strand's offsets from every node that contains it, then the assignment of strands
@@ -217,6 +258,8 @@ impl DrawnStrands {
                 let k = k as usize * verts;
                 out.copy_from_slice(&scratch[k..k + verts]);
             });
+        self.rotation = *rot.matrix();
+        self.follow();
         drawable
     }
 
@@ -235,8 +278,12 @@ impl DrawnStrands {
             strand_local: &self.strand_local,
             per: self.per,
         };
+        let cut = fallen.is_some();
         self.cuts
             .apply(fallen, state, h, &strands, head, &mut self.geometry);
+        if cut {
+            self.follow();
+        }
     }
 }
 
