@@ -39,13 +39,12 @@ pub mod hairstyle;
 mod lod_stage;
 #[cfg(feature = "render")]
 pub mod render;
-mod render_geometry;
 pub mod scene;
 mod simulation;
 
 pub use body::from_spec as body_from_spec;
 pub use error::HairError;
-pub use render_geometry::RenderGeometry;
+pub use hair_render::stage::RenderGeometry;
 pub use salon::{
     Pose, PoseKey, Salon, SalonError, SalonSettings, SalonStats, Tool, ToolAction, ToolEvent,
     ToolScript,

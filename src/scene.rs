@@ -48,6 +48,9 @@ pub struct Scene {
     /// The salon tool script: a timeline of tool events and the tools' settings
     /// (`docs/salon.md`).
     pub tools: hair_salon::ToolScript,
+    /// Rendered strands that follow the groom's strands as guides (three nearest, barycentric);
+    /// 0 (the default) draws the groom's strands themselves.
+    pub render_strands: u32,
 }
 
 impl Default for Scene {
@@ -71,6 +74,7 @@ impl Default for Scene {
             wind: Wind::default(),
             head_motion: HeadMotionSpec::Still,
             tools: hair_salon::ToolScript::default(),
+            render_strands: 0,
         }
     }
 }
@@ -426,6 +430,9 @@ impl Scene {
         positive("frame_rate", self.frame_rate)?;
         if self.substeps == 0 || self.substeps > 1000 {
             return Err(bad("substeps", "must be between 1 and 1000"));
+        }
+        if self.render_strands > 1_000_000 {
+            return Err(bad("render_strands", "must be at most 1,000,000"));
         }
         match &self.body {
             BodySpec::None => {}

@@ -6,13 +6,13 @@
 //! tolerance.
 
 use crate::lod_stage::{self, LodStage};
-use crate::render_geometry::{DrawnStrands, RenderGeometry};
 use crate::scene::{LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
 use hair_collide::{BodyConstraint, HairHairStage, Localization, Sections};
 use hair_dynamics::{Environment, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
 use hair_lod::{Hierarchy, NodeKind};
+use hair_render::stage::{DrawnStrands, FallenPiece, RenderGeometry};
 use hair_salon::{Salon, SalonInput, SalonStats};
 use hair_ssv::{MeshBody, Point, Real};
 use nalgebra::Isometry3;
@@ -161,6 +161,7 @@ impl Simulation {
             .flat_map(|st| st.points.iter().copied());
         let mut drawn = DrawnStrands::new(strand_rest.collect(), per, 3);
         drawn.prepare(&hierarchy, &state, &front_nodes);
+        drawn.set_followers(scene.render_strands as usize, scene.seed);
         let salon = Salon::new(&scene.tools, &state, &hierarchy, &node_radius);
         let lod = LodStage::new(policy, &scene, &hierarchy, &mut state)?;
         let settings = scene
@@ -312,7 +313,7 @@ impl Simulation {
 
     /// The rendered strands (world frame) as of the last step.
     pub fn render_geometry(&self) -> &RenderGeometry {
-        &self.drawn.geometry
+        self.drawn.output()
     }
 
     /// The fixed simulation step (s).
@@ -363,27 +364,27 @@ impl Simulation {
         // A frame that is a whole number of steps up to rounding takes them all.
         while self.accumulator >= dt * (1.0 - 1e-6) {
             self.previous_render
-                .clone_from(&self.drawn.geometry.positions);
+                .clone_from(&self.drawn.output().positions);
             stats.push(self.step()?);
             self.accumulator -= dt;
             steps += 1;
         }
-        if self.previous_render.len() != self.drawn.geometry.positions.len() {
+        if self.previous_render.len() != self.drawn.output().positions.len() {
             self.previous_render
-                .clone_from(&self.drawn.geometry.positions);
+                .clone_from(&self.drawn.output().positions);
         }
         self.accumulator = self.accumulator.max(0.0);
         let alpha = (self.accumulator / dt).clamp(0.0, 1.0) as Real;
-        self.frame_render.subdivisions = self.drawn.geometry.subdivisions;
+        self.frame_render.subdivisions = self.drawn.output().subdivisions;
         self.frame_render
             .offsets
-            .clone_from(&self.drawn.geometry.offsets);
+            .clone_from(&self.drawn.output().offsets);
         self.frame_render.positions.clear();
         // The frame lies `alpha` of a step past the last step: blend from the step before.
         self.frame_render.positions.extend(
             self.previous_render
                 .iter()
-                .zip(&self.drawn.geometry.positions)
+                .zip(&self.drawn.output().positions)
                 .map(|(a, b)| a + (b - a) * alpha),
         );
         Ok(steps)
@@ -418,7 +419,7 @@ impl Simulation {
     /// the two steps around it (the last one's geometry before any `advance`).
     pub fn frame_geometry(&self) -> &RenderGeometry {
         if self.frame_render.positions.is_empty() {
-            &self.drawn.geometry
+            self.drawn.output()
         } else {
             &self.frame_render
         }
@@ -504,7 +505,7 @@ impl Simulation {
         }
         self.draw_step(stats.step)?;
         stats.ms_render_geometry = clock.lap();
-        stats.render_vertices = self.drawn.geometry.vertex_count();
+        stats.render_vertices = self.drawn.output().vertex_count();
         stats.time = f64::from(self.time);
         stats.kinetic_energy = self.kinetic_energy();
         stats.state_hash = self.state_hash();
@@ -588,8 +589,14 @@ impl Simulation {
             return Err(HairError::NonFiniteRender { step, strand });
         }
         let head = drivers::head_motion(&self.scene.head_motion, self.time);
+        let pieces = self.salon.fallen_pieces().filter(|f| !f.swept);
+        let fallen = (self.salon.stats().cuts > 0).then_some(pieces.map(|f| FallenPiece {
+            skeleton: f.skeleton,
+            source: f.source,
+            first_source: f.first_source,
+        }));
         self.drawn
-            .apply_cuts(&self.salon, &self.state, &self.hierarchy, &head);
+            .apply_cuts(fallen, &self.state, &self.hierarchy, &head);
         Ok(())
     }
 

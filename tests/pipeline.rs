@@ -252,7 +252,17 @@ fn frames_of_any_length_interpolate_between_fixed_steps() {
 fn sintel_loads_with_its_guide_strands() {
     let scene = Scene::load("sintel").unwrap();
     let sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
-    assert_eq!(sim.render_geometry().strand_count(), 228);
+    // The 228 guides are drawn as the scene's 20,000 followers; without them, as themselves.
+    assert_eq!(scene.scene.render_strands, 20_000);
+    assert_eq!(sim.render_geometry().strand_count(), 20_000);
+    let mut guides_only = scene.clone();
+    guides_only.scene.render_strands = 0;
+    let guides = Simulation::new(&guides_only, LodPolicy::Fine).unwrap();
+    assert_eq!(guides.render_geometry().strand_count(), 228);
+    let mut fewer = scene.clone();
+    fewer.scene.render_strands = 1234;
+    let fewer = Simulation::new(&fewer, LodPolicy::Fine).unwrap();
+    assert_eq!(fewer.render_geometry().strand_count(), 1234);
     // The bust's six holes (eye sockets, mouth, neck and arm cuts: 148 boundary edges) are
     // capped, one lid triangle per boundary edge, so the body is a closed surface.
     assert!(

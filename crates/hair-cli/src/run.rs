@@ -108,6 +108,9 @@ pub struct Summary {
     pub prefill_ms: f64,
     /// Samples of the distance field that filling computed (0 without `--prefill-field`).
     pub prefilled_samples: usize,
+    /// Mean milliseconds per frame building the render geometry (drawn strands, followers of
+    /// guides included): `ms_per_stage.render_geometry`, named as the step's stat.
+    pub ms_render_geometry: f64,
     /// Mean milliseconds per frame in each stage.
     pub ms_per_stage: Stages,
     /// Skeletons simulated at the end.
@@ -299,6 +302,7 @@ pub fn simulate(
             ms_frame_max: frame_ms.percentile(100),
             prefill_ms,
             prefilled_samples,
+            ms_render_geometry: stages.render_geometry,
             ms_per_stage: stages,
             skeletons: sim.front_nodes().len(),
             strands: sim.render_geometry().strand_count(),

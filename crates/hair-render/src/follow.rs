@@ -6,6 +6,34 @@
 use crate::{Point, Real};
 use nalgebra::Matrix3;
 
+/// Rendered strands around skeletons, with their output polylines (world frame).
+#[derive(Clone, Debug, Default)]
+pub struct RenderGeometry {
+    /// Subdivisions per skeleton segment (1 = the control points themselves).
+    pub subdivisions: usize,
+    /// Output: strand `s` occupies `positions[offsets[s]..offsets[s + 1]]`.
+    pub offsets: Vec<u32>,
+    /// Output positions (m, world).
+    pub positions: Vec<Point>,
+}
+
+impl RenderGeometry {
+    /// Number of output vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of rendered strands.
+    pub fn strand_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// The output polyline of strand `s`.
+    pub fn strand(&self, s: usize) -> &[Point] {
+        &self.positions[self.offsets[s] as usize..self.offsets[s + 1] as usize]
+    }
+}
+
 /// Parallel-transport frames along a polyline, starting from `first`.
 pub fn transport_frames(points: &[Point], first: &Matrix3<Real>, out: &mut Vec<Matrix3<Real>>) {
     out.clear();

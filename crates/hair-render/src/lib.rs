@@ -16,8 +16,10 @@
 //! | [`CpuRenderer`] | the CPU reference (rayon): `render_to_image`, `opacity_maps` |
 //! | [`OpacityMaps`], [`OsmPlanes`], [`hat_weights`] | the 16 maps, their planes and the hat reconstruction |
 //! | [`mod@geometry`] | Catmull-Rom subdivision, strand groups, ribbon vertices |
-//! | [`follow`] | strands that follow skeletons: transport frames, Catmull-Rom curves through control points |
+//! | [`follow`] | strands that follow skeletons: transport frames, Catmull-Rom curves through control points, [`follow::RenderGeometry`] |
+//! | [`guides`] | rendered strands that follow the three nearest guides with barycentric weights |
 //! | [`mod@shading`] | the two-highlight hair model on the CPU |
+//! | `stage` (feature `stage`) | the `hair` simulation's render stage: drawn strands around its skeletons, guides' followers |
 //! | [`compare`] | image statistics for GPU/CPU comparisons |
 //! | `test_scenes` (feature `test-support`) | a procedural head with hanging hair for tests, benches and demos |
 //!
@@ -72,9 +74,12 @@ mod frame;
 pub mod geometry;
 #[cfg(feature = "gpu")]
 mod gpu;
+pub mod guides;
 mod osm;
 mod scene;
 pub mod shading;
+#[cfg(feature = "stage")]
+pub mod stage;
 #[cfg(feature = "test-support")]
 pub mod test_scenes;
 

@@ -1,59 +1,34 @@
-//! Render geometry: every rendered strand follows the skeleton that represents it, at its fixed
-//! offset in that skeleton's local frame, subdivided into a smooth Catmull-Rom curve.
+//! The render stage of a simulation (feature `stage`): every rendered strand follows the
+//! skeleton that represents it, at its fixed offset in that skeleton's local frame, subdivided
+//! into a smooth Catmull-Rom curve.
 //!
 //! Ward & Lin §3: skeletons are the simulation's base curves; strands, clusters and strips are
 //! built around them for rendering only.
 
+pub use crate::follow::RenderGeometry;
+use crate::follow::{catmull_rom, catmull_rom_into, transport_frames, transport_frames_into};
+use crate::guides::Followers;
+use crate::{Point, Real, Vector};
 use hair_dynamics::{HeadMotion, SkeletonId, StrandState};
 use hair_lod::Hierarchy;
-use hair_render::follow::{catmull_rom, catmull_rom_into, transport_frames, transport_frames_into};
-use hair_salon::Salon;
-use hair_ssv::{Point, Real, Vector};
 use nalgebra::{Matrix3, Rotation3};
 use rayon::prelude::*;
 
-/// Rendered strands around skeletons, with their output polylines (world frame).
-#[derive(Clone, Debug, Default)]
-pub struct RenderGeometry {
-    /// Subdivisions per skeleton segment (1 = the control points themselves).
-    pub subdivisions: usize,
-    /// Output: strand `s` occupies `positions[offsets[s]..offsets[s + 1]]`.
-    pub offsets: Vec<u32>,
-    /// Output positions (m, world).
-    pub positions: Vec<Point>,
-}
-
-impl RenderGeometry {
-    /// Number of output vertices.
-    pub fn vertex_count(&self) -> usize {
-        self.positions.len()
-    }
-
-    /// Number of rendered strands.
-    pub fn strand_count(&self) -> usize {
-        self.offsets.len().saturating_sub(1)
-    }
-
-    /// The output polyline of strand `s`.
-    pub fn strand(&self, s: usize) -> &[Point] {
-        &self.positions[self.offsets[s] as usize..self.offsets[s + 1] as usize]
-    }
-}
-
 /// The render stage: every rendered strand follows the front node that holds it, at its
 /// offsets from that node's control points in their transport frames, drawn as a Catmull-Rom
-/// curve in world coordinates; cuts end strands and fallen pieces are drawn
-/// ([`CutRender`]). Buffers are reused: an update allocates nothing once grown.
+/// curve in world coordinates; cuts end strands and fallen pieces are drawn. With followers
+/// ([`DrawnStrands::set_followers`]) the strands are guides and the output is their followers.
+/// Buffers are reused: an update allocates nothing once grown.
 #[derive(Clone, Debug)]
-pub(crate) struct DrawnStrands {
-    /// The output polylines.
-    pub(crate) geometry: RenderGeometry,
+pub struct DrawnStrands {
+    /// The strands' polylines.
+    geometry: RenderGeometry,
     /// Control points per strand.
-    pub(crate) per: usize,
+    per: usize,
     /// Every strand's rest points (`per` each).
     strand_rest: Vec<Point>,
     /// Per strand, the front node that draws it.
-    pub(crate) strand_node: Vec<u32>,
+    strand_node: Vec<u32>,
     /// Transport frames of the front skeletons' nodes, by global node index.
     node_frames: Vec<Matrix3<Real>>,
     /// The front skeletons' node ranges and ids `(start, end, node)`, ascending: the frames are
@@ -73,12 +48,15 @@ pub(crate) struct DrawnStrands {
     /// The strands' curves in `strand_order`, before they are copied out in strand order.
     render_scratch: Vec<Point>,
     cuts: CutRender,
+    /// The strands' followers, if the strands are guides, and the rotation of the last update.
+    followers: Option<Followers>,
+    rotation: Matrix3<Real>,
 }
 
 impl DrawnStrands {
     /// The stage for strands of `per` control points at rest at `strand_rest`, drawn with
     /// `subdivisions` points per segment.
-    pub(crate) fn new(strand_rest: Vec<Point>, per: usize, subdivisions: usize) -> Self {
+    pub fn new(strand_rest: Vec<Point>, per: usize, subdivisions: usize) -> Self {
         Self {
             geometry: RenderGeometry {
                 subdivisions,
@@ -96,12 +74,53 @@ impl DrawnStrands {
             strand_rank: Vec::new(),
             render_scratch: Vec::new(),
             cuts: CutRender::default(),
+            followers: None,
+            rotation: Matrix3::identity(),
+        }
+    }
+
+    /// From now on the strands are guides and the output is `count` followers of them, sampled
+    /// deterministically from `seed` ([`crate::guides::sample_links`]); `count` 0 draws the
+    /// strands themselves again. Call before the next update.
+    pub fn set_followers(&mut self, count: usize, seed: u64) {
+        if count == 0 {
+            self.followers = None;
+            return;
+        }
+        let per = self.per.max(1);
+        let roots: Vec<Point> = self.strand_rest.iter().step_by(per).copied().collect();
+        let links = crate::guides::sample_links(&roots, count, seed);
+        let sub = self.geometry.subdivisions;
+        self.followers = Some(Followers::new(&self.strand_rest, per, links, sub));
+    }
+
+    /// The followers, if the strands are guides.
+    pub fn followers(&self) -> Option<&Followers> {
+        self.followers.as_ref()
+    }
+
+    /// What is drawn: the followers' polylines if the strands are guides, else the strands'.
+    pub fn output(&self) -> &RenderGeometry {
+        self.followers
+            .as_ref()
+            .map_or(&self.geometry, |f| &f.geometry)
+    }
+
+    /// The strands' own polylines (the guides' when there are followers).
+    pub fn strands(&self) -> &RenderGeometry {
+        &self.geometry
+    }
+
+    /// The followers again from the strands as drawn.
+    fn follow(&mut self) {
+        if let Some(f) = &mut self.followers {
+            f.update(&self.geometry, &self.rotation);
         }
     }
 
     /// Every strand's offsets from every node that contains it, then the assignment of strands
     /// to the current front.
-    pub(crate) fn prepare(&mut self, h: &Hierarchy, state: &StrandState, front: &[u32]) {
+    pub fn prepare(&mut self, h: &Hierarchy, state: &StrandState, front: &[u32]) {
         let per = self.per;
         let mut frames = Vec::new();
         let mut rest = Vec::new();
@@ -125,7 +144,7 @@ impl DrawnStrands {
     }
 
     /// Which front node draws each strand.
-    pub(crate) fn assign(&mut self, h: &Hierarchy, state: &StrandState, front: &[u32]) {
+    pub fn assign(&mut self, h: &Hierarchy, state: &StrandState, front: &[u32]) {
         let per = self.per as u32;
         let n_strands = h.strand_total();
         self.strand_node.resize(n_strands, 0);
@@ -158,7 +177,7 @@ impl DrawnStrands {
     }
 
     /// The first drawn strand with a point not within [`DRAWABLE`] of the origin (0 if none).
-    pub(crate) fn first_undrawable(&self) -> usize {
+    pub fn first_undrawable(&self) -> usize {
         let verts = self.geometry.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
         self.geometry
             .positions
@@ -170,7 +189,7 @@ impl DrawnStrands {
     /// Rebuilds every rendered strand from its front node, in world coordinates; false when a
     /// control point is not within [`DRAWABLE`] of the origin (non-finite included).
     #[must_use]
-    pub(crate) fn update(
+    pub fn update(
         &mut self,
         h: &Hierarchy,
         state: &StrandState,
@@ -239,13 +258,16 @@ impl DrawnStrands {
                 let k = k as usize * verts;
                 out.copy_from_slice(&scratch[k..k + verts]);
             });
+        self.rotation = *rot.matrix();
+        self.follow();
         drawable
     }
 
-    /// Cut strands end at the cut; fallen pieces are drawn (nothing before the first cut).
-    pub(crate) fn apply_cuts(
+    /// Cut strands end at the cut; `fallen` pieces are drawn. Nothing to do while `fallen` is
+    /// `None` (no cut yet).
+    pub fn apply_cuts(
         &mut self,
-        salon: &Salon,
+        fallen: Option<impl Iterator<Item = FallenPiece>>,
         state: &StrandState,
         h: &Hierarchy,
         head: &HeadMotion,
@@ -256,13 +278,17 @@ impl DrawnStrands {
             strand_local: &self.strand_local,
             per: self.per,
         };
+        let cut = fallen.is_some();
         self.cuts
-            .apply(salon, state, h, &strands, head, &mut self.geometry);
+            .apply(fallen, state, h, &strands, head, &mut self.geometry);
+        if cut {
+            self.follow();
+        }
     }
 }
 
 /// Drawn control points farther than this from the origin (m) stop a step with
-/// [`crate::HairError::NonFiniteRender`]: hair there has left any scene, and the curves through such
+/// an error: hair there has left any scene, and the curves through such
 /// points (sums of a few multiples of them) could overflow `f32`.
 const DRAWABLE: Real = 1e36;
 
@@ -292,22 +318,34 @@ fn fill_frames(
     );
 }
 
+/// A piece of hair cut off a skeleton and not swept away: the render stage draws the strands of
+/// the node it was cut from along it.
+#[derive(Clone, Copy, Debug)]
+pub struct FallenPiece {
+    /// Its skeleton in the state.
+    pub skeleton: SkeletonId,
+    /// The hierarchy node it was cut from (whose strands it draws).
+    pub source: u32,
+    /// The control point of the source its first point was.
+    pub first_source: u32,
+}
+
 /// The rendered strands' offsets from their skeletons, as the render stage holds them.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct CutStrands<'a> {
+struct CutStrands<'a> {
     /// Per strand, the front node that draws it.
-    pub strand_node: &'a [u32],
+    strand_node: &'a [u32],
     /// Per node, where its strands' offsets start in `strand_local`.
-    pub node_local_start: &'a [u32],
+    node_local_start: &'a [u32],
     /// Each strand's offset per control point in its node's rest transport frames.
-    pub strand_local: &'a [Vector],
+    strand_local: &'a [Vector],
     /// Control points per strand.
-    pub per: usize,
+    per: usize,
 }
 
 /// The drawn strands after the salon's cuts, with their scratch buffers.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct CutRender {
+struct CutRender {
     frames: Vec<Matrix3<Real>>,
     curve: Vec<Point>,
     control: Vec<Point>,
@@ -317,18 +355,18 @@ impl CutRender {
     /// Render geometry after cuts: every cut strand ends where its skeleton now ends, and every
     /// fallen piece that is not swept draws the strands of the node it was cut from, at their
     /// offsets from the original control points. Nothing to do before the first cut.
-    pub(crate) fn apply(
+    fn apply(
         &mut self,
-        salon: &Salon,
+        fallen: Option<impl Iterator<Item = FallenPiece>>,
         state: &StrandState,
         h: &Hierarchy,
         strands: &CutStrands<'_>,
         head: &HeadMotion,
         out: &mut RenderGeometry,
     ) {
-        if salon.stats().cuts == 0 {
+        let Some(fallen) = fallen else {
             return;
-        }
+        };
         let CutStrands {
             strand_node,
             node_local_start,
@@ -363,8 +401,8 @@ impl CutRender {
         // Fallen pieces.
         let rot = head.rotation;
         let origin = head.position;
-        for f in salon.fallen_pieces() {
-            if f.swept || (f.source as usize) >= h.node_count() {
+        for f in fallen {
+            if (f.source as usize) >= h.node_count() {
                 continue;
             }
             let id = f.skeleton;
