@@ -1,9 +1,9 @@
 //! Drivers: the head's rigid motion and the camera at time `t`.
 
 use crate::scene::{HeadMotionSpec, Scene};
-use hair_dynamics::{Environment, HeadMotion, Wind};
+use hair_dynamics::{Environment, HeadMotion, HeadPose, Wind};
 use hair_ssv::{Point, Real, Vector};
-use nalgebra::{Rotation3, Unit};
+use nalgebra::{Rotation3, Unit, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 /// The head's pose, velocity and acceleration at time `t` (s).
@@ -25,6 +25,27 @@ pub fn head_motion(spec: &HeadMotionSpec, t: Real) -> HeadMotion {
                 angular_acceleration: axis.into_inner() * (-a * w * w * s),
                 ..HeadMotion::default()
             }
+        }
+    }
+}
+
+/// The head's pose at time `t` (s) on the scene's path: what the simulation hands its head
+/// track ([`hair_dynamics::HeadPoseTrack`]) each step, as a caller's `set_head_pose` would.
+pub fn head_pose(spec: &HeadMotionSpec, t: Real) -> HeadPose {
+    match spec {
+        HeadMotionSpec::Still => HeadPose::identity(),
+        HeadMotionSpec::Shake {
+            axis,
+            amplitude_degrees,
+            frequency,
+        } => {
+            let axis = Unit::new_normalize(Vector::from(*axis));
+            let w = std::f32::consts::TAU * frequency;
+            let angle = amplitude_degrees.to_radians() * (w * t).sin();
+            HeadPose::from_parts(
+                nalgebra::Translation3::identity(),
+                UnitQuaternion::from_axis_angle(&axis, angle),
+            )
         }
     }
 }
@@ -55,11 +76,12 @@ pub fn camera(spec: &CameraSpec, t: Real) -> (Point, Point) {
     at(keys.len() - 1)
 }
 
-/// The environment of the step that starts at time `t`: gravity, the head's motion, the wind.
-pub fn environment(scene: &Scene, t: Real) -> Environment {
+/// The environment of the step that starts at time `t`: gravity, the head's motion (as the
+/// simulation's head track estimates it), the wind.
+pub fn environment(scene: &Scene, head: HeadMotion, t: Real) -> Environment {
     Environment {
         gravity: Vector::from(scene.dynamics.gravity),
-        head: head_motion(&scene.head_motion, t),
+        head,
         wind: Wind {
             seed: scene.seed,
             ..scene.wind

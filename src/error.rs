@@ -28,6 +28,9 @@ pub enum HairError {
         /// What is wrong.
         message: String,
     },
+    /// A groom handed to `Simulation::from_groom` has no strands.
+    #[error("the groom has no strands")]
+    EmptyGroom,
     /// No built-in scene has this name and no such file exists.
     #[error("no built-in scene or file named `{0}` (built-ins: {1})")]
     UnknownScene(String, String),

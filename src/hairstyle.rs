@@ -22,41 +22,53 @@ pub fn from_spec(spec: &HairstyleSpec, seed: u64, base_dir: &Path) -> Result<Hai
         } => {
             let file = base_dir.join(path);
             let strands = hair_io::read_strands(&file)?;
-            let off = Vector::from(*offset);
-            let mut out = Vec::with_capacity(strands.strand_count());
-            for (strand, s) in strands.iter().enumerate() {
-                let pts: Vec<Point> = s
-                    .iter()
-                    .map(|p| Point::from(Vector::from(*p) * *scale + off))
-                    .collect();
-                let pts = resample_polyline(&pts, *points as usize);
-                // The dynamics would reject it too, but could name neither the file nor the
-                // strand in it.
-                for (segment, w) in pts.windows(2).enumerate() {
-                    let length = (w[1] - w[0]).norm();
-                    if !(length.is_finite() && length > 0.0) {
-                        return Err(HairError::DegenerateStrand {
-                            file: file.display().to_string(),
-                            strand,
-                            segment,
-                            length,
-                            scale: *scale,
-                            points: *points,
-                        });
-                    }
-                }
-                let dir = (pts[1] - pts[0])
-                    .try_normalize(1e-12)
-                    .unwrap_or_else(|| -Vector::y());
-                out.push(Strand {
-                    root: pts[0],
-                    frame: frame_along(&dir),
-                    points: pts,
-                });
-            }
-            Ok(Hairstyle { strands: out })
+            let file = file.display().to_string();
+            from_strands(&strands, (*scale, *offset, *points), &file)
         }
     }
+}
+
+/// The hairstyle of a groom (`hair_io::Strands`, read from a file named `file` or built in
+/// memory): each strand scaled, offset and resampled by arc length to `points` control points.
+pub fn from_strands(
+    strands: &hair_io::Strands,
+    (scale, offset, points): (f32, [f32; 3], u32),
+    file: &str,
+) -> Result<Hairstyle, HairError> {
+    let (scale, points) = (&scale, &points);
+    let off = Vector::from(offset);
+    let mut out = Vec::with_capacity(strands.strand_count());
+    for (strand, s) in strands.iter().enumerate() {
+        let pts: Vec<Point> = s
+            .iter()
+            .map(|p| Point::from(Vector::from(*p) * *scale + off))
+            .collect();
+        let pts = resample_polyline(&pts, *points as usize);
+        // The dynamics would reject it too, but could name neither the file nor the
+        // strand in it.
+        for (segment, w) in pts.windows(2).enumerate() {
+            let length = (w[1] - w[0]).norm();
+            if !(length.is_finite() && length > 0.0) {
+                return Err(HairError::DegenerateStrand {
+                    file: file.into(),
+                    strand,
+                    segment,
+                    length,
+                    scale: *scale,
+                    points: *points,
+                });
+            }
+        }
+        let dir = (pts[1] - pts[0])
+            .try_normalize(1e-12)
+            .unwrap_or_else(|| -Vector::y());
+        out.push(Strand {
+            root: pts[0],
+            frame: frame_along(&dir),
+            points: pts,
+        });
+    }
+    Ok(Hairstyle { strands: out })
 }
 
 /// A root frame whose z axis points along `dir`.

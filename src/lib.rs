@@ -2,27 +2,41 @@
 //!
 //! Interactive, physically based hair: strands simulated at any level of detail, collided with
 //! bodies and with each other. The facade re-exports the layers and composes them into a
-//! per-step pipeline driven by scene files.
+//! per-step pipeline driven by scene files or by the caller.
 //!
 //! | item | what it is |
 //! |---|---|
 //! | [`dynamics`], [`ssv`], [`grid`], [`lod`], [`io`] | the layers, re-exported |
 //! | [`Scene`], [`LoadedScene`] | serde scene data (`scenes/*.ron`, `docs/scene-format.md`) |
 //! | [`Simulation`], [`StepStats`] | the per-step pipeline and what each step cost |
+//! | [`Simulation::from_groom`], [`Body`], [`Simulation::set_head_pose`] | a simulation built from data and driven by its caller |
 //! | [`salon`]: [`ToolEvent`], [`ToolScript`], [`Salon`] | salon tools (water, spray, mousse, dryer, grab, scissors) driven by a replayable timeline of events |
 //! | [`body_from_spec`] | the scene's body (procedural head, wrinkled torus or OBJ) as a [`ssv::MeshBody`] |
 //!
-//! ```no_run
-//! use hair::{LodPolicy, Scene, Simulation};
+//! Embedded in an engine, with no scene file (`examples/embed.rs` in full): a groom from arrays,
+//! the head posed each step (velocities and accelerations are estimated from the poses; a jump
+//! beyond [`TeleportLimits`] is a teleport), the drawn strands borrowed, not copied.
 //!
-//! let scene = Scene::load("wind")?;
-//! let mut sim = Simulation::new(&scene, LodPolicy::Fine)?;
-//! for _ in 0..10 {
+//! ```
+//! use hair::{Body, Scene, Simulation};
+//! use nalgebra::{Isometry3, Vector3};
+//!
+//! let roots = (0..20).map(|i| [0.02 * (i as f32 - 10.0), 0.13, -0.05]);
+//! let groom = roots.map(|[x, y, z]| (0..8).map(|k| [x, y, z - 0.03 * k as f32]).collect());
+//! let groom = hair::io::Strands::from_polylines(groom.collect())?;
+//! let mut sim = Simulation::from_groom(&groom, Body::Head { resolution: 16 }, &Scene::default())?;
+//! for _ in 0..30 {
+//!     let t = sim.time() + sim.dt(); // the pose the head reaches at the end of the step
+//!     let turn = Vector3::y() * 0.4 * (6.0 * t).sin();
+//!     sim.set_head_pose(Isometry3::new(Vector3::zeros(), turn))?;
 //!     let stats = sim.step()?;
-//!     assert!(stats.max_penetration_m <= f64::from(scene.scene.collision.tolerance));
+//!     let tip = sim.render_geometry().strand(0).last().copied(); // a slice into the sim
+//!     println!("{:.2} ms, tip {tip:?}", stats.ms_total);
 //! }
 //! # Ok::<(), hair::HairError>(())
 //! ```
+//!
+//! From a scene file: `Simulation::new(&Scene::load("wind")?, LodPolicy::Fine)?`, then `step`.
 
 pub use hair_collide as collide;
 pub use hair_dynamics as dynamics;
@@ -34,6 +48,7 @@ pub use hair_ssv as ssv;
 
 mod body;
 pub mod drivers;
+mod embed;
 mod error;
 pub mod hairstyle;
 mod lod_stage;
@@ -43,6 +58,8 @@ pub mod scene;
 mod simulation;
 
 pub use body::from_spec as body_from_spec;
+pub use dynamics::{HeadPose, TeleportLimits};
+pub use embed::Body;
 pub use error::HairError;
 pub use hair_render::stage::RenderGeometry;
 pub use salon::{

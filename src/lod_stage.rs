@@ -5,7 +5,7 @@
 use crate::HairError;
 use crate::drivers;
 use crate::scene::Scene;
-use hair_dynamics::{SkeletonId, StrandState};
+use hair_dynamics::{HeadPose, SkeletonId, StrandState};
 use hair_lod::{AdaptiveLod, BodyDepth, Hierarchy, NodeKind, OccluderMesh, TransitionReport, View};
 use hair_ssv::{MeshBody, Point, Real, Vector};
 use serde::{Deserialize, Serialize};
@@ -94,7 +94,7 @@ impl LodStage {
         // 5eea007, then dropped), `wardlin`'s visible RMS distance from `fine` went from 1.94 to
         // 3.76 mm: hair hidden at rest that the wind brings into view came back from its root
         // strip.
-        let view = view(scene, 0.0);
+        let view = view(scene, &drivers::head_pose(&scene.head_motion, 0.0), 0.0);
         for _ in 0..=h.max_level() {
             if !lod.update(h, state, &view, &[])? {
                 break;
@@ -130,8 +130,8 @@ impl LodStage {
         true
     }
 
-    /// One selection at time `t` (fixed policies change nothing): the camera's view in the
-    /// head frame, the body's depth image when hidden hair is culled, and the skeletons
+    /// One selection at time `t` with the head at `head` (fixed policies change nothing): the
+    /// camera's view in the head frame, the body's depth image when hidden hair is culled, and the skeletons
     /// localization froze.
     pub(crate) fn select(
         &mut self,
@@ -139,13 +139,13 @@ impl LodStage {
         body: Option<&MeshBody>,
         h: &Hierarchy,
         state: &mut StrandState,
-        t: Real,
+        (head, t): (&HeadPose, Real),
         frozen: &[bool],
     ) -> Result<LodReport, HairError> {
         let Some(lod) = &mut self.adaptive else {
             return Ok(LodReport::default());
         };
-        let mut view = view(scene, t);
+        let mut view = view(scene, head, t);
         if let (Some(body), true) = (body, scene.adaptive.cull_hidden) {
             self.body_depth.build(occluder(body), &view);
             view.occluder = Some(&self.body_depth);
@@ -161,11 +161,10 @@ impl LodStage {
     }
 }
 
-/// The camera's view cone at time `t` in the head frame, with no occluder yet.
-pub(crate) fn view(scene: &Scene, t: Real) -> View<'static> {
-    let head = drivers::head_motion(&scene.head_motion, t);
+/// The camera's view cone at time `t` in the frame of the head at `head`, with no occluder yet.
+pub(crate) fn view(scene: &Scene, head: &HeadPose, t: Real) -> View<'static> {
     let (eye, target) = drivers::camera(&scene.camera, t);
-    let to_head = |p: Point| Point::from(head.rotation.inverse() * (p - head.position));
+    let to_head = |p: Point| head.inverse_transform_point(&p);
     let (eye, target) = (to_head(eye), to_head(target));
     let forward = (target - eye)
         .try_normalize(1e-9)

@@ -10,7 +10,7 @@ use crate::Simulation;
 pub fn scene_of(sim: &Simulation) -> RenderScene {
     let scene = sim.scene();
     let (eye, target) = crate::drivers::camera(&scene.camera, sim.time());
-    let head = crate::drivers::head_motion(&scene.head_motion, sim.time());
+    let head = sim.head_track().motion();
     let to_world = |p: &hair_ssv::Point| head.position + head.rotation * p.coords;
     let body = sim.body().map(|b| {
         let positions: Vec<_> = b.vertices.iter().map(to_world).collect();

@@ -6,10 +6,10 @@
 //! tolerance.
 
 use crate::lod_stage::{self, LodStage};
-use crate::scene::{LodPolicy, Scene};
+use crate::scene::{HeadMotionSpec, LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
 use hair_collide::{BodyConstraint, HairHairStage, Localization, Sections};
-use hair_dynamics::{Environment, Material, SkeletonId, StepSettings, StrandState};
+use hair_dynamics::{Environment, HeadPoseTrack, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
 use hair_lod::{Hierarchy, NodeKind};
 use hair_render::stage::{DrawnStrands, FallenPiece, RenderGeometry};
@@ -104,7 +104,12 @@ pub struct Simulation {
     /// Per skeleton, its collision radius as built (the salon's tools scale it).
     node_radius: Vec<Real>,
     drawn: DrawnStrands,
-    teleport: Isometry3<Real>,
+    /// World from the head track's frame: the accumulated teleports.
+    pub(crate) teleport: Isometry3<Real>,
+    /// The head's poses and the motion estimated from them (the track's frame).
+    pub(crate) head: HeadPoseTrack,
+    /// The head track as built, for [`Simulation::reset`].
+    initial_head: HeadPoseTrack,
     /// Time carried from one [`Simulation::advance`] to the next (s).
     accumulator: f64,
     previous_render: Vec<Point>,
@@ -127,9 +132,21 @@ impl StageClock {
 impl Simulation {
     /// Builds the simulation of a loaded scene with a LOD policy.
     pub fn new(loaded: &LoadedScene, policy: LodPolicy) -> Result<Self, HairError> {
-        let mut scene = loaded.scene.clone();
+        let scene = &loaded.scene;
         let body = crate::body::from_spec(&scene.body, &loaded.base_dir)?;
         let style = hairstyle::from_spec(&scene.hairstyle, scene.seed, &loaded.base_dir)?;
+        Self::build(scene.clone(), style, body, &loaded.source, policy)
+    }
+
+    /// Builds the simulation of `scene` with the hairstyle and body given (its own
+    /// `hairstyle` and `body` unread); `source` names the scene in errors.
+    pub(crate) fn build(
+        mut scene: Scene,
+        style: hair_lod::Hairstyle,
+        body: Option<MeshBody>,
+        source: &str,
+        policy: LodPolicy,
+    ) -> Result<Self, HairError> {
         if scene.camera.keys.is_empty() {
             scene
                 .camera
@@ -137,7 +154,7 @@ impl Simulation {
                 .push(fitted_camera(&scene, &style, body.as_ref()));
         }
         let bad_style = |message: String| HairError::SceneValue {
-            file: loaded.source.clone(),
+            file: source.into(),
             field: "hairstyle".into(),
             message,
         };
@@ -167,6 +184,10 @@ impl Simulation {
         let settings = scene
             .dynamics
             .step_settings(scene.frame_rate, scene.substeps);
+        // The scene's head path drives the head through the same track a caller's poses do;
+        // it was moving a step before the start as the path says.
+        let pose = |t: Real| drivers::head_pose(&scene.head_motion, t);
+        let head = HeadPoseTrack::with_previous(settings.dt, pose(-settings.dt), pose(0.0))?;
         let mut sim = Self {
             initial: state.clone(),
             scene,
@@ -187,6 +208,8 @@ impl Simulation {
             node_radius,
             drawn,
             teleport: Isometry3::identity(),
+            initial_head: head.clone(),
+            head,
             accumulator: 0.0,
             previous_render: Vec::new(),
             frame_render: RenderGeometry::default(),
@@ -326,20 +349,6 @@ impl Simulation {
         self.time
     }
 
-    /// Moves the whole head (and the hair with it) by a rigid offset in one jump, as a game
-    /// does when a character respawns: the hair's motion relative to the head is untouched, so
-    /// nothing whips. Offsets compose; the drawn geometry follows from the next update.
-    pub fn teleport(&mut self, offset: Isometry3<Real>) {
-        self.teleport = offset * self.teleport;
-        // An offset too large to draw is reported by the next step.
-        let _finite = self.draw();
-    }
-
-    /// The accumulated teleport offset (world from the scene's head path).
-    pub fn teleport_offset(&self) -> Isometry3<Real> {
-        self.teleport
-    }
-
     /// Advances by a frame of `seconds` (any length: the frame rate is the caller's) in whole
     /// fixed steps, carrying the remainder to the next frame, and pushes each step's stats to
     /// `stats`. [`Simulation::frame_geometry`] then holds the strands blended between the last
@@ -396,14 +405,14 @@ impl Simulation {
     /// As for that policy, the camera keeps its place relative to the scene's head path, so a
     /// teleport carries what it sees along with the head.
     pub fn seen_by_camera(&self, points: &[Point], out: &mut Vec<bool>) {
-        let mut view = lod_stage::view(&self.scene, self.time);
+        let mut view = lod_stage::view(&self.scene, self.head.current(), self.time);
         // The step's image when it holds this view (`build` then keeps it), else a new one.
         let mut depth = self.lod.body_depth.clone();
         if let Some(body) = &self.body {
             depth.build(lod_stage::occluder(body), &view);
             view.occluder = Some(&depth);
         }
-        let head = drivers::head_motion(&self.scene.head_motion, self.time);
+        let head = self.head.motion();
         // The inverse of the render geometry's head-to-world transform.
         let to_head = (self.teleport.rotation.to_rotation_matrix() * head.rotation).inverse();
         let origin = self.teleport * head.position;
@@ -434,6 +443,7 @@ impl Simulation {
         self.hair_hair.forget();
         self.localization.clear();
         self.accumulator = 0.0;
+        self.head.clone_from(&self.initial_head);
         self.frame_render.positions.clear();
         if self.lod.reset() {
             self.refresh_front();
@@ -469,7 +479,11 @@ impl Simulation {
             step: self.steps,
             ..StepStats::default()
         };
-        let env = drivers::environment(&self.scene, self.time);
+        if self.head.next().is_none() && self.scene.head_motion != HeadMotionSpec::Still {
+            let t = self.time + self.settings.dt;
+            self.drive_head(drivers::head_pose(&self.scene.head_motion, t))?;
+        }
+        let env = drivers::environment(&self.scene, self.head.motion(), self.time);
         stats.ms_drivers = clock.lap();
         self.select_lod(&mut stats)?;
         stats.ms_lod = clock.lap();
@@ -500,6 +514,7 @@ impl Simulation {
         stats.ms_hair_object = clock.lap();
         self.time += self.settings.dt;
         self.steps += 1;
+        self.head.advance();
         if self.scene.localization {
             self.localization.record_positions(&self.state);
         }
@@ -520,7 +535,7 @@ impl Simulation {
             self.body.as_ref(),
             &self.hierarchy,
             &mut self.state,
-            self.time,
+            (self.head.current(), self.time),
             self.localization.frozen(),
         )?;
         if report.changed {
@@ -588,7 +603,7 @@ impl Simulation {
             let strand = self.drawn.first_undrawable();
             return Err(HairError::NonFiniteRender { step, strand });
         }
-        let head = drivers::head_motion(&self.scene.head_motion, self.time);
+        let head = self.head.motion();
         let pieces = self.salon.fallen_pieces().filter(|f| !f.swept);
         let fallen = (self.salon.stats().cuts > 0).then_some(pieces.map(|f| FallenPiece {
             skeleton: f.skeleton,
@@ -603,8 +618,8 @@ impl Simulation {
     /// Draws every strand from its front node in world coordinates; false when a control point
     /// is not within drawing range of the origin (non-finite included).
     #[must_use]
-    fn draw(&mut self) -> bool {
-        let head = drivers::head_motion(&self.scene.head_motion, self.time);
+    pub(crate) fn draw(&mut self) -> bool {
+        let head = self.head.motion();
         // The teleport offset moves the drawn hair with the head, never the dynamics.
         let rot = self.teleport.rotation.to_rotation_matrix() * head.rotation;
         let origin = self.teleport * head.position;

@@ -50,10 +50,10 @@ fn check(cases: &[(&str, Option<LodPolicy>, u32, &str)]) {
 fn builtin_scenes_at_their_own_policy() {
     check(&[
         ("wind", None, 60, "7503e7e61f251afe"),
-        ("shake", None, 60, "24b5e1dad66c1cca"),
-        ("torus", None, 60, "a4799c0c94be18e0"),
+        ("shake", None, 60, "7d3b559658e306e2"),
+        ("torus", None, 60, "747ebdd3f506fb2f"),
         ("zoom", None, 60, "e8e60c6ff3eb6a05"),
-        ("bristles", None, 60, "8e4ba78215168661"),
+        ("bristles", None, 60, "d5ffbe3c16515294"),
         ("sintel", None, 60, "400fb40df38285dd"),
     ]);
 }

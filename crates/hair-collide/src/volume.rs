@@ -522,8 +522,8 @@ mod tests {
             let value = (unit - 0.5) * 2.0f64.powi((x % 60) as i32);
             assert_eq!(to_fixed(value), value.round() as i64, "{value}");
         }
-        for tie in [0.5, 1.5, 2.5, -0.5, -1.5, -2.5] {
-            assert_eq!(to_fixed(tie), (tie as f64).round() as i64, "{tie}");
+        for tie in [0.5f64, 1.5, 2.5, -0.5, -1.5, -2.5] {
+            assert_eq!(to_fixed(tie), tie.round() as i64, "{tie}");
         }
     }
 }

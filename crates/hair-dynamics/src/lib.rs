@@ -10,6 +10,7 @@
 //! | [`SkeletonDesc`], [`Material`], [`Root`] | a skeleton to add: rest polyline, material profile, attached or free root |
 //! | [`Style`], [`style_points`] | straight, wavy and curly rest shapes |
 //! | [`Environment`], [`Wind`], [`HeadMotion`], [`ForceField`] | gravity, wind, head motion as fictitious forces, force cones |
+//! | [`HeadPoseTrack`], [`TeleportLimits`] | the head's motion estimated from the poses a caller gives; a jump is a teleport |
 //! | [`Integrator`], [`TorqueModel`], [`StepSettings`] | seven integrators, local or chain torque |
 //! | [`NodeCorrection`], [`VelocityConstraint`] | collision response mapped back to angles |
 //! | [`StrandState::sweep_chains`], [`SweepAsk`] | a position constraint applied root to tip, each node tested where the corrections before it put it (the hard body constraint) |
@@ -44,6 +45,7 @@ mod bend;
 mod bonds;
 mod environment;
 mod error;
+mod head_track;
 mod integrate;
 mod polyline;
 pub mod reference;
@@ -60,6 +62,7 @@ pub use bend::{Bend, bend_between};
 pub use bonds::Bond;
 pub use environment::{Environment, ForceField, HeadMotion, Wind};
 pub use error::DynamicsError;
+pub use head_track::{HeadPose, HeadPoseTrack, PoseJump, TeleportLimits};
 pub use integrate::{Integrator, LinearSolver, StepReport, StepSettings, TorqueModel};
 pub use polyline::resample_polyline;
 pub use response::{NodeCorrection, SweepAsk, VelocityConstraint};

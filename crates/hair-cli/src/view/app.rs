@@ -549,7 +549,7 @@ impl ViewApp {
 
     fn head_sphere_now(&self) -> HeadSphere {
         let sim = self.session.sim();
-        let head = hair::drivers::head_motion(&sim.scene().head_motion, sim.time());
+        let head = sim.head_track().motion();
         let t = sim.teleport_offset();
         HeadSphere {
             centre: t * (head.position + head.rotation * self.head_sphere.centre.coords),
