@@ -330,6 +330,10 @@ fn draw(
         .collect();
     let edges = |v: &[f64]| -> Vec<(f64, f64)> {
         let l: Vec<f64> = v.iter().map(|x| x.log10()).collect();
+        if l.len() == 1 {
+            // A single row or column: a decade wide around it.
+            return vec![(l[0] - 0.5, l[0] + 0.5)];
+        }
         (0..l.len())
             .map(|i| {
                 let lo = if i == 0 {
