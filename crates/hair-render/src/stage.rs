@@ -176,7 +176,7 @@ impl DrawnStrands {
         self.front_ranges.sort_unstable();
     }
 
-    /// The first drawn strand with a point not within [`DRAWABLE`] of the origin (0 if none).
+    /// The first drawn strand with a point not within 1e36 m of the origin (0 if none).
     pub fn first_undrawable(&self) -> usize {
         let verts = self.geometry.offsets.get(1).copied().unwrap_or(1).max(1) as usize;
         self.geometry
@@ -187,7 +187,7 @@ impl DrawnStrands {
     }
 
     /// Rebuilds every rendered strand from its front node, in world coordinates; false when a
-    /// control point is not within [`DRAWABLE`] of the origin (non-finite included).
+    /// control point is not within 1e36 m of the origin (non-finite included).
     #[must_use]
     pub fn update(
         &mut self,
