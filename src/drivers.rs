@@ -3,31 +3,8 @@
 use crate::scene::{HeadMotionSpec, Scene};
 use hair_dynamics::{Environment, HeadMotion, HeadPose, Wind};
 use hair_ssv::{Point, Real, Vector};
-use nalgebra::{Rotation3, Unit, UnitQuaternion};
+use nalgebra::{Unit, UnitQuaternion};
 use serde::{Deserialize, Serialize};
-
-/// The head's pose, velocity and acceleration at time `t` (s).
-pub fn head_motion(spec: &HeadMotionSpec, t: Real) -> HeadMotion {
-    match spec {
-        HeadMotionSpec::Still => HeadMotion::default(),
-        HeadMotionSpec::Shake {
-            axis,
-            amplitude_degrees,
-            frequency,
-        } => {
-            let axis = Unit::new_normalize(Vector::from(*axis));
-            let a = amplitude_degrees.to_radians();
-            let w = std::f32::consts::TAU * frequency;
-            let (s, c) = (w * t).sin_cos();
-            HeadMotion {
-                rotation: Rotation3::from_axis_angle(&axis, a * s),
-                angular_velocity: axis.into_inner() * (a * w * c),
-                angular_acceleration: axis.into_inner() * (-a * w * w * s),
-                ..HeadMotion::default()
-            }
-        }
-    }
-}
 
 /// The head's pose at time `t` (s) on the scene's path: what the simulation hands its head
 /// track ([`hair_dynamics::HeadPoseTrack`]) each step, as a caller's `set_head_pose` would.

@@ -32,13 +32,7 @@ pub fn scene_of(sim: &Simulation) -> RenderScene {
             color: [0.78, 0.6, 0.5],
         }
     });
-    let radius = match &scene.hairstyle {
-        crate::scene::HairstyleSpec::Procedural(p) => p.strand_radius,
-        // Guides drawn alone stand for the hair around them; strands drawn around the guides
-        // are each one hair of many, thinner as there are more of them.
-        crate::scene::HairstyleSpec::File { .. } if scene.render_strands > 0 => 0.0004,
-        crate::scene::HairstyleSpec::File { .. } => 0.0015,
-    };
+    let radius = scene.drawn_strand_radius();
     let geometry = sim.render_geometry();
     let strands = (0..geometry.strand_count())
         .map(|s| Strand {

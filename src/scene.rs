@@ -396,6 +396,17 @@ impl Scene {
         })
     }
 
+    /// The radius (m) the drawn strands are given: the procedural style's own; for a file
+    /// groom 1.5 mm when its guides are drawn alone (each stands for the hair around it), 0.4 mm
+    /// when `render_strands` draws many strands around them.
+    pub fn drawn_strand_radius(&self) -> f32 {
+        match &self.hairstyle {
+            HairstyleSpec::Procedural(p) => p.strand_radius,
+            HairstyleSpec::File { .. } if self.render_strands > 0 => 0.0004,
+            HairstyleSpec::File { .. } => 0.0015,
+        }
+    }
+
     /// Checks every value's range; errors name the field.
     pub fn validate(&self, file: &str) -> Result<(), HairError> {
         let bad = |field: &str, message: &str| HairError::SceneValue {

@@ -679,8 +679,8 @@ fn fitted_camera(
     style: &hair_lod::Hairstyle,
     body: Option<&MeshBody>,
 ) -> crate::scene::CameraKey {
-    let head = drivers::head_motion(&scene.head_motion, 0.0);
-    let world = |p: &Point| (head.position + head.rotation * p.coords).into();
+    let head = drivers::head_pose(&scene.head_motion, 0.0);
+    let world = |p: &Point| (head * p).into();
     let hair = style.strands.iter().flat_map(|s| s.points.iter());
     let (mut lo, mut hi) = ([Real::INFINITY; 3], [Real::NEG_INFINITY; 3]);
     for p in hair.clone() {

@@ -11,7 +11,7 @@ use hair::Simulation;
 use hair::io::npy::NpyPointsWriter;
 use hair::io::usda::{BodyPose, UpAxis, UsdStage, UsdaWriter};
 use hair::io::{Existing, Mesh};
-use hair::scene::{HairstyleSpec, HeadMotionSpec};
+use hair::scene::HeadMotionSpec;
 use std::path::{Path, PathBuf};
 
 /// Where the export goes.
@@ -107,7 +107,7 @@ impl Export {
                     vertices: b.vertices.iter().map(|p| [p.x, p.y, p.z]).collect(),
                     triangles: b.triangles.clone(),
                 });
-                let width = 2.0 * strand_radius(&scene.hairstyle);
+                let width = 2.0 * scene.drawn_strand_radius();
                 Some(UsdaWriter::create(
                     path,
                     &stage,
@@ -165,17 +165,9 @@ impl Export {
     }
 }
 
-/// The drawn strands' radius (m), as `hair::render::scene_of` draws them.
-fn strand_radius(style: &HairstyleSpec) -> f32 {
-    match style {
-        HairstyleSpec::Procedural(p) => p.strand_radius,
-        HairstyleSpec::File { .. } => 0.0015,
-    }
-}
-
-/// The body's pose now: the scene's head path, then the simulation's teleport offset.
+/// The body's pose now: the head track's pose, then the simulation's teleport offset.
 fn body_pose(sim: &Simulation) -> BodyPose {
-    let head = hair::drivers::head_motion(&sim.scene().head_motion, sim.time());
+    let head = sim.head_track().motion();
     let teleport = sim.teleport_offset();
     let rotation = teleport.rotation.to_rotation_matrix() * head.rotation;
     let translation = teleport * head.position;

@@ -18,6 +18,15 @@ pub struct RenderGeometry {
 }
 
 impl RenderGeometry {
+    /// Lays out `strands` strands of `verts` vertices each: the offsets rewritten, the
+    /// positions grown or shrunk to fit (their buffers reused).
+    pub(crate) fn lay_out(&mut self, strands: usize, verts: usize) {
+        self.offsets.clear();
+        self.offsets
+            .extend((0..=strands as u32).map(|s| s * verts as u32));
+        self.positions.resize(strands * verts, Point::origin());
+    }
+
     /// Number of output vertices.
     pub fn vertex_count(&self) -> usize {
         self.positions.len()

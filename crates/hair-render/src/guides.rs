@@ -243,13 +243,7 @@ impl Followers {
         let sub = self.geometry.subdivisions.max(1);
         let verts = sub * (per - 1) + 1;
         let count = self.links.len();
-        self.geometry.offsets.clear();
-        self.geometry
-            .offsets
-            .extend((0..=count as u32).map(|s| s * verts as u32));
-        self.geometry
-            .positions
-            .resize(count * verts, Point::origin());
+        self.geometry.lay_out(count, verts);
         let (control, turn, live) = (&self.control, &self.turn, &self.live);
         let (links, offsets) = (&self.links, &self.offsets);
         self.geometry

@@ -205,13 +205,7 @@ impl DrawnStrands {
         fill_frames(state, &mut self.node_frames, 0, &self.front_ranges);
         let per = self.per;
         let verts = sub * (per - 1) + 1;
-        self.geometry.offsets.clear();
-        self.geometry
-            .offsets
-            .extend((0..=n_strands as u32).map(|s| s * verts as u32));
-        self.geometry
-            .positions
-            .resize(n_strands * verts, Point::origin());
+        self.geometry.lay_out(n_strands, verts);
         let strand_node = &self.strand_node;
         let node_frames = &self.node_frames;
         let local = &self.strand_local;
