@@ -11,6 +11,7 @@
 //! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves | see `hair stability` |
 
 mod implicit_coupled;
+mod lanes;
 mod rosenbrock;
 mod rotating_frame;
 
@@ -429,84 +430,156 @@ fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
     run_sequential(run, sh)
 }
 
-fn run_sequential(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
+fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
     SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
         let (sc, q, w) = &mut *guard;
         let mut first_bad = None;
         let fallbacks_before = sc.dense_fallbacks;
-        for local in 0..run.roots.len() {
-            let s = run.first + local;
-            if !sh.active[s] {
-                continue;
+        let mut scalar = |run: &mut Run<'_>, local: usize, settings: &StepSettings| {
+            if let Some(node) = step_skeleton(run, sh, local, settings, sc, q, w) {
+                let s = run.first + local;
+                // The lanes finish out of order: keep the first skeleton, as the scalar loop does.
+                first_bad = Some(first_bad.map_or((s, node), |b: (usize, usize)| b.min((s, node))));
             }
-            let o = sh.state_offsets[s] as usize;
-            let n = sh.counts[s] as usize;
-            let lo = o - run.node_base;
-            let r = lo..lo + n;
-            let g = o..o + n;
-            let m2 = 2 * (n - 1);
-            if q.len() < m2 {
-                q.resize(m2, 0.0);
-                w.resize(m2, 0.0);
-            }
-            for i in 1..n {
-                q[2 * i - 2] = run.theta[lo + i];
-                q[2 * i - 1] = run.phi[lo + i];
-                w[2 * i - 2] = run.omega_theta[lo + i];
-                w[2 * i - 1] = run.omega_phi[lo + i];
-            }
-            let rs = &mut run.roots[local];
-            let mut root = RootDyn {
-                position: rs.position.coords,
-                rotation: rs.rotation,
-                velocity: rs.velocity,
-                free: rs.free,
+        };
+        if lanes::covers(sh) {
+            // Strands of equal node count (attached roots) eight at a time; the rest one by one.
+            let dense = StepSettings {
+                solver: LinearSolver::Hand,
+                ..sh.settings
             };
-            let params = StrandParams {
-                rest_theta: &sh.rest_theta[g.clone()],
-                rest_phi: &sh.rest_phi[g.clone()],
-                mass: &sh.mass[g.clone()],
-                wetness: &sh.wetness[g.clone()],
-                k_theta: &sh.k_theta[g.clone()],
-                k_phi: &sh.k_phi[g.clone()],
-                damping: &sh.damping[g.clone()],
-                rest_points: &sh.rest_points[g.clone()],
-                external: &sh.force[g.clone()],
+            let mut fallbacks = 0;
+            let mut group = [0usize; lanes::LANES];
+            let mut members = 0;
+            let mut group_n = 0;
+            let flush = |run: &mut Run<'_>, group: &[usize], n: usize, fallbacks: &mut usize,
+                             scalar: &mut dyn FnMut(&mut Run<'_>, usize, &StepSettings)| {
+                let outcome = lanes::step_group(run, sh, group, n);
+                for (&local, o) in group.iter().zip(outcome) {
+                    match o {
+                        lanes::LaneOutcome::Done => {}
+                        lanes::LaneOutcome::Declined => {
+                            *fallbacks += 1;
+                            scalar(run, local, &dense);
+                        }
+                        lanes::LaneOutcome::NonFinite => scalar(run, local, &sh.settings),
+                    }
+                }
             };
-            let bad = step_strand(
-                &mut root,
-                &mut q[..m2],
-                &mut w[..m2],
-                &mut run.length[r.clone()],
-                &sh.rest_length[g.clone()],
-                &sh.k_stretch[g.clone()],
-                &params,
-                &sh.env,
-                &sh.settings,
-                sc,
-            );
-            if let Some(node) = bad {
-                first_bad = first_bad.or(Some((s, node)));
-                continue;
+            for local in 0..run.roots.len() {
+                let s = run.first + local;
+                if !sh.active[s] {
+                    continue;
+                }
+                let n = sh.counts[s] as usize;
+                if run.roots[local].free {
+                    scalar(&mut run, local, &sh.settings);
+                    continue;
+                }
+                if members > 0 && n != group_n {
+                    flush(&mut run, &group[..members], group_n, &mut fallbacks, &mut scalar);
+                    members = 0;
+                }
+                group_n = n;
+                group[members] = local;
+                members += 1;
+                if members == lanes::LANES {
+                    flush(&mut run, &group[..members], group_n, &mut fallbacks, &mut scalar);
+                    members = 0;
+                }
             }
-            for i in 1..n {
-                run.theta[lo + i] = q[2 * i - 2];
-                run.phi[lo + i] = q[2 * i - 1];
-                run.omega_theta[lo + i] = w[2 * i - 2];
-                run.omega_phi[lo + i] = w[2 * i - 1];
+            if members > 0 {
+                flush(&mut run, &group[..members], group_n, &mut fallbacks, &mut scalar);
             }
-            rs.position = Point::from(root.position);
-            rs.velocity = root.velocity;
-            // Positions and velocities at the end of the step, for collision and rendering.
-            strand::forward(&root, &q[..m2], &w[..m2], &run.length[r.clone()], sc);
-            for k in 0..n {
-                run.positions[lo + k] = Point::from(sc.pos[k]);
-                run.velocities[lo + k] = sc.vel[k];
+            sc.dense_fallbacks += fallbacks;
+        } else {
+            for local in 0..run.roots.len() {
+                if sh.active[run.first + local] {
+                    scalar(&mut run, local, &sh.settings);
+                }
             }
         }
         (first_bad, sc.dense_fallbacks - fallbacks_before)
     })
+}
+
+/// Advances skeleton `local` of `run` by the scalar step with `settings`, writing back its new
+/// state and end-of-step positions; returns the first non-finite node (the skeleton restored).
+fn step_skeleton(
+    run: &mut Run<'_>,
+    sh: &Shared<'_>,
+    local: usize,
+    settings: &StepSettings,
+    sc: &mut Scratch<Real>,
+    q: &mut Vec<Real>,
+    w: &mut Vec<Real>,
+) -> Option<usize> {
+    let s = run.first + local;
+    let o = sh.state_offsets[s] as usize;
+    let n = sh.counts[s] as usize;
+    let lo = o - run.node_base;
+    let r = lo..lo + n;
+    let g = o..o + n;
+    let m2 = 2 * (n - 1);
+    if q.len() < m2 {
+        q.resize(m2, 0.0);
+        w.resize(m2, 0.0);
+    }
+    for i in 1..n {
+        q[2 * i - 2] = run.theta[lo + i];
+        q[2 * i - 1] = run.phi[lo + i];
+        w[2 * i - 2] = run.omega_theta[lo + i];
+        w[2 * i - 1] = run.omega_phi[lo + i];
+    }
+    let rs = &mut run.roots[local];
+    let mut root = RootDyn {
+        position: rs.position.coords,
+        rotation: rs.rotation,
+        velocity: rs.velocity,
+        free: rs.free,
+    };
+    let params = StrandParams {
+        rest_theta: &sh.rest_theta[g.clone()],
+        rest_phi: &sh.rest_phi[g.clone()],
+        mass: &sh.mass[g.clone()],
+        wetness: &sh.wetness[g.clone()],
+        k_theta: &sh.k_theta[g.clone()],
+        k_phi: &sh.k_phi[g.clone()],
+        damping: &sh.damping[g.clone()],
+        rest_points: &sh.rest_points[g.clone()],
+        external: &sh.force[g.clone()],
+    };
+    let bad = step_strand(
+        &mut root,
+        &mut q[..m2],
+        &mut w[..m2],
+        &mut run.length[r.clone()],
+        &sh.rest_length[g.clone()],
+        &sh.k_stretch[g.clone()],
+        &params,
+        &sh.env,
+        settings,
+        sc,
+    );
+    if bad.is_some() {
+        return bad;
+    }
+    for i in 1..n {
+        run.theta[lo + i] = q[2 * i - 2];
+        run.phi[lo + i] = q[2 * i - 1];
+        run.omega_theta[lo + i] = w[2 * i - 2];
+        run.omega_phi[lo + i] = w[2 * i - 1];
+    }
+    rs.position = Point::from(root.position);
+    rs.velocity = root.velocity;
+    // Positions and velocities at the end of the step, for collision and rendering.
+    strand::forward(&root, &q[..m2], &w[..m2], &run.length[r.clone()], sc);
+    for k in 0..n {
+        run.positions[lo + k] = Point::from(sc.pos[k]);
+        run.velocities[lo + k] = sc.vel[k];
+    }
+    None
 }
 
 impl StrandState {

@@ -1,0 +1,616 @@
+//! The coupled implicit step eight strands at a time, in `f32x8` lanes.
+//!
+//! The same model and the same linear solve as [`super::implicit_coupled`]'s structured solve,
+//! specialised to what the runtime runs most: `f32`, attached roots, a head that does not turn,
+//! no air and no force fields. Strands of equal node count in a worker's run are grouped by
+//! eight; a group's data are laid out lane by lane (lane `l` of every vector is strand `l`), so
+//! each arithmetic instruction advances eight strands. A group short of eight repeats its last
+//! strand in the spare lanes and drops their results, so a strand's answer never depends on which
+//! strands share its group (results are the same for any thread count).
+//!
+//! Per step and group, four passes over the nodes:
+//! 1. root to tip: the kinematics (positions, tangents, joint axes) and the prefix sums of
+//!    `A w` (the frame's angular velocity, which the kinematics accumulates anyway);
+//! 2. tip to root: forces, torques, inertia and the Jacobian's suffix sums, and in the same
+//!    iteration the joint's generators and its step of the elimination (no sums stored);
+//! 3. root to tip: the unknowns;
+//! 4. tip to root: the residual check, on values pass 2 and 3 kept.
+//!
+//! and a last root-to-tip pass that updates the state and writes the end-of-step positions and
+//! velocities. A lane whose check fails, or whose state goes non-finite, is left untouched and
+//! redone by the scalar step (the check's failures counted as dense fallbacks).
+
+use super::{Integrator, LinearSolver, Shared, StepSettings, TorqueModel};
+use crate::run::Run;
+use crate::{Point, Vector};
+use std::cell::RefCell;
+use std::ops::{Add, Mul, Sub};
+use wide::f32x8;
+
+/// Strands advanced together.
+pub(super) const LANES: usize = 8;
+
+type L = f32x8;
+
+/// A 3-vector of lanes.
+#[derive(Clone, Copy, Default)]
+struct V3 {
+    x: L,
+    y: L,
+    z: L,
+}
+
+impl Add for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn add(self, o: V3) -> V3 {
+        V3 {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+}
+
+impl Sub for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn sub(self, o: V3) -> V3 {
+        V3 {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+}
+
+impl Mul<L> for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn mul(self, s: L) -> V3 {
+        V3 {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+}
+
+impl V3 {
+    #[inline(always)]
+    fn dot(self, o: V3) -> L {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+
+    #[inline(always)]
+    fn cross(self, o: V3) -> V3 {
+        V3 {
+            x: self.y * o.z - self.z * o.y,
+            y: self.z * o.x - self.x * o.z,
+            z: self.x * o.y - self.y * o.x,
+        }
+    }
+
+    #[inline(always)]
+    fn norm_squared(self) -> L {
+        self.dot(self)
+    }
+}
+
+/// A 3 x 3 matrix of lanes, row-major.
+#[derive(Clone, Copy, Default)]
+struct M3 {
+    r: [V3; 3],
+}
+
+impl M3 {
+    #[inline(always)]
+    fn mul_v(&self, v: V3) -> V3 {
+        V3 {
+            x: self.r[0].dot(v),
+            y: self.r[1].dot(v),
+            z: self.r[2].dot(v),
+        }
+    }
+
+    /// `self^T v`.
+    #[inline(always)]
+    fn tr_mul_v(&self, v: V3) -> V3 {
+        self.r[0] * v.x + self.r[1] * v.y + self.r[2] * v.z
+    }
+
+    #[inline(always)]
+    fn column(&self, c: usize) -> V3 {
+        let pick = |row: &V3| match c {
+            0 => row.x,
+            1 => row.y,
+            _ => row.z,
+        };
+        V3 {
+            x: pick(&self.r[0]),
+            y: pick(&self.r[1]),
+            z: pick(&self.r[2]),
+        }
+    }
+
+    #[inline(always)]
+    fn mul_m(&self, o: &M3) -> M3 {
+        M3 {
+            r: [0, 1, 2].map(|i| o.tr_mul_v(self.r[i])),
+        }
+    }
+
+    /// `self + a b^T`.
+    #[inline(always)]
+    fn add_outer(&mut self, a: V3, b: V3) {
+        self.r[0] = self.r[0] + b * a.x;
+        self.r[1] = self.r[1] + b * a.y;
+        self.r[2] = self.r[2] + b * a.z;
+    }
+}
+
+/// What the elimination keeps of joint `j` for the unknowns and the residual check.
+#[derive(Clone, Copy, Default)]
+struct JointSweep {
+    /// Joint axes (the two columns of `A_j`).
+    a: [V3; 2],
+    /// The Jacobian's column generators `V_j` and row generators `W_j`.
+    v: [V3; 2],
+    wg: [V3; 2],
+    /// Rows of the gain `E_j` and the offset `e_j`: `x_j = E_j pre_j + e_j`.
+    gain: [V3; 2],
+    offset: [L; 2],
+    /// Diagonal and right-hand side of the joint's two rows.
+    d: [L; 2],
+    b: [L; 2],
+    /// Prefix sum `sum_{k<j} A_k w_k` (pass 1), then `sum_{k<j} A_k x_k` (pass 3).
+    prefix: V3,
+    /// The unknowns.
+    x: [L; 2],
+}
+
+/// Per-node lane buffers, grown to the longest group seen and then reused.
+#[derive(Default)]
+struct LaneScratch {
+    pos: Vec<V3>,
+    tangent: Vec<V3>,
+    tension: Vec<L>,
+    joints: Vec<JointSweep>,
+    out: Vec<NodeOut>,
+}
+
+/// A node's state at the end of the step, held until every lane's finiteness is known.
+#[derive(Clone, Copy, Default)]
+struct NodeOut {
+    q: [L; 2],
+    w: [L; 2],
+    len: L,
+    pos: V3,
+    vel: V3,
+}
+
+impl LaneScratch {
+    fn reserve(&mut self, n: usize) {
+        if self.pos.len() < n {
+            self.pos.resize(n, V3::default());
+            self.tangent.resize(n, V3::default());
+            self.tension.resize(n, L::ZERO);
+            self.joints.resize(n, JointSweep::default());
+            self.out.resize(n, NodeOut::default());
+        }
+    }
+}
+
+thread_local! {
+    static LANE_SCRATCH: RefCell<LaneScratch> = RefCell::new(LaneScratch::default());
+}
+
+/// Whether the lane step covers these settings and environment: the coupled step by its
+/// structured solve, with no turning or accelerating-in-rotation head, no air, no fields.
+pub(super) fn covers(sh: &Shared<'_>) -> bool {
+    let s = &sh.settings;
+    s.integrator == Integrator::ImplicitCoupled
+        && s.solver == LinearSolver::Structured
+        && !sh.env.has_frame_motion
+        && !sh.env.has_air
+        && sh.env.env.fields.is_empty()
+}
+
+/// What became of one lane's strand.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum LaneOutcome {
+    /// Advanced and written back.
+    Done,
+    /// The residual check failed: redo by the dense solve, and count it.
+    Declined,
+    /// Went non-finite: redo by the scalar step, which restores and reports it.
+    NonFinite,
+}
+
+/// Advances the strands `members` (local indices into `run`, all attached, all of `n` nodes, at
+/// most [`LANES`]) by one coupled step, writing back those that succeed.
+pub(super) fn step_group(
+    run: &mut Run<'_>,
+    sh: &Shared<'_>,
+    members: &[usize],
+    n: usize,
+) -> [LaneOutcome; LANES] {
+    LANE_SCRATCH.with(|cell| {
+        let mut guard = cell.borrow_mut();
+        guard.reserve(n);
+        step_group_in(run, sh, members, n, &mut guard)
+    })
+}
+
+/// Lane `l`'s strand: `members[l]`, or the last member in a spare lane.
+#[inline(always)]
+fn member(members: &[usize], l: usize) -> usize {
+    members[l.min(members.len() - 1)]
+}
+
+fn step_group_in(
+    run: &mut Run<'_>,
+    sh: &Shared<'_>,
+    members: &[usize],
+    n: usize,
+    ls: &mut LaneScratch,
+) -> [LaneOutcome; LANES] {
+    let settings: &StepSettings = &sh.settings;
+    let chain = settings.torque == TorqueModel::Chain;
+    let h = L::splat(settings.dt);
+    let h2 = h * h;
+    // Where each lane's strand starts in the run's slices and in the shared arrays.
+    let local: [usize; LANES] = std::array::from_fn(|l| member(members, l));
+    let global: [usize; LANES] =
+        std::array::from_fn(|l| sh.state_offsets[run.first + local[l]] as usize);
+    let in_run: [usize; LANES] = std::array::from_fn(|l| global[l] - run.node_base);
+    let node = |field: &[f32], base: &[usize; LANES], i: usize| -> L {
+        L::from(std::array::from_fn::<f32, LANES, _>(|l| field[base[l] + i]))
+    };
+    let node3 = |field: &[Vector], base: &[usize; LANES], i: usize| -> V3 {
+        let v: [Vector; LANES] = std::array::from_fn(|l| field[base[l] + i]);
+        V3 {
+            x: L::from(v.map(|p| p.x)),
+            y: L::from(v.map(|p| p.y)),
+            z: L::from(v.map(|p| p.z)),
+        }
+    };
+    let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
+    let root_pos = V3 {
+        x: L::from(roots.map(|r| r.position.x)),
+        y: L::from(roots.map(|r| r.position.y)),
+        z: L::from(roots.map(|r| r.position.z)),
+    };
+    let root_rot = M3 {
+        r: [0, 1, 2].map(|i| V3 {
+            x: L::from(roots.map(|r| r.rotation[(i, 0)])),
+            y: L::from(roots.map(|r| r.rotation[(i, 1)])),
+            z: L::from(roots.map(|r| r.rotation[(i, 2)])),
+        }),
+    };
+    let gravity = {
+        let g = sh.env.gravity;
+        V3 {
+            x: L::splat(g.x),
+            y: L::splat(g.y),
+            z: L::splat(g.z),
+        }
+    };
+    let has_external = !sh.force.is_empty();
+
+    // Pass 1, root to tip: kinematics and the prefix sums of A w.
+    let mut rot = root_rot;
+    let mut omega = V3::default();
+    ls.pos[0] = root_pos;
+    for i in 1..n {
+        let (x, y) = (node(run.theta, &in_run, i), node(run.phi, &in_run, i));
+        let (wx, wy) = (
+            node(run.omega_theta, &in_run, i),
+            node(run.omega_phi, &in_run, i),
+        );
+        let bend = LaneBend::new(x, y);
+        let ax = rot.mul_v(bend.axis_x);
+        let ay = rot.mul_v(bend.axis_y);
+        rot = rot.mul_m(&bend.rotation);
+        let t = rot.column(2);
+        let seg = t * node(run.length, &in_run, i);
+        let joint = &mut ls.joints[i - 1];
+        joint.a = [ax, ay];
+        joint.prefix = omega;
+        omega = omega + ax * wx + ay * wy;
+        ls.tangent[i] = t;
+        ls.pos[i] = ls.pos[i - 1] + seg;
+    }
+
+    // Pass 2, tip to root: torques and sums, generators, elimination.
+    let mut failed = L::ZERO.simd_ne(L::ZERO); // all false
+    let floor = L::splat(1e-2);
+    let (mut s_f, mut t_vec, mut s_m, mut s_mp, mut s_mp2) =
+        (V3::default(), V3::default(), L::ZERO, V3::default(), L::ZERO);
+    let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
+    let (mut gain_m, mut gain_r, mut suffix_w) = (M3::default(), V3::default(), V3::default());
+    for i in (1..n).rev() {
+        let j = i - 1;
+        let pivot = ls.pos[i - 1];
+        let xi = ls.pos[i];
+        let mi = node(sh.mass, &global, i) + node(sh.wetness, &global, i);
+        let mut fi = gravity * mi;
+        if has_external {
+            fi = fi + node3(sh.force, &global, i);
+        }
+        let seg = xi - pivot;
+        let rp = node3(sh.rest_points, &global, i);
+        let rc = node3(sh.rest_points, &global, i - 1);
+        s_m += mi;
+        s_mp = s_mp + rp * mi;
+        s_mp2 += rp.norm_squared() * mi;
+        let (inertia, torque, load, p, s, sigma);
+        if chain {
+            inertia = s_mp2 - L::splat(2.0) * rc.dot(s_mp) + rc.norm_squared() * s_m;
+            s_f = s_f + fi;
+            t_vec = t_vec + seg.cross(s_f);
+            torque = t_vec;
+            load = s_f;
+            s_pf.add_outer(xi, fi);
+            s_fp += fi.dot(xi);
+            (p, s, sigma) = (s_pf, s_f, s_fp);
+        } else {
+            inertia = (rp - rc).norm_squared() * mi;
+            torque = seg.cross(fi);
+            load = fi;
+            let mut own = M3::default();
+            own.add_outer(xi, fi);
+            (p, s, sigma) = (own, fi, fi.dot(xi));
+        }
+        let len = node(run.length, &in_run, i);
+        let inertia = inertia.max(floor * mi * len * len);
+        ls.tension[i] = load.dot(ls.tangent[i]);
+        let damping = node(sh.damping, &global, i);
+        let k = [node(sh.k_theta, &global, i), node(sh.k_phi, &global, i)];
+        let rest = [
+            node(sh.rest_theta, &global, i),
+            node(sh.rest_phi, &global, i),
+        ];
+        let q = [node(run.theta, &in_run, i), node(run.phi, &in_run, i)];
+        let w = [
+            node(run.omega_theta, &in_run, i),
+            node(run.omega_phi, &in_run, i),
+        ];
+        let joint = &mut ls.joints[j];
+        let a = joint.a;
+        // The Jacobian's generators (`strand::load_column_generator`, `load_row_generator`).
+        let sc_dot = sigma - s.dot(pivot);
+        let v = a.map(|at| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot);
+        let wg = a.map(|at| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque));
+        if !chain {
+            gain_m = M3::default();
+            gain_r = V3::default();
+            suffix_w = V3::default();
+        }
+        suffix_w = suffix_w + v[0] * w[0] + v[1] * w[1];
+        let mut d = [L::ZERO; 2];
+        let mut b = [L::ZERO; 2];
+        for t in 0..2 {
+            let tau = a[t].dot(torque) - k[t] * (q[t] - rest[t]) - damping * w[t];
+            let jw = wg[t].dot(joint.prefix) + a[t].dot(suffix_w);
+            d[t] = inertia + h * damping + h2 * k[t];
+            b[t] = h * tau + h2 * (jw - k[t] * w[t]);
+        }
+        // suf_j = G x_j + M pre_j + r with G = M A_j + V_j; the joint's 2 x 2 block.
+        let g = [gain_m.mul_v(a[0]) + v[0], gain_m.mul_v(a[1]) + v[1]];
+        let b00 = d[0] - h2 * a[0].dot(g[0]);
+        let b01 = -h2 * a[0].dot(g[1]);
+        let b10 = -h2 * a[1].dot(g[0]);
+        let b11 = d[1] - h2 * a[1].dot(g[1]);
+        let det = b00 * b11 - b01 * b10;
+        failed |= det.simd_eq(L::ZERO) | !det.is_finite();
+        let inv_det = L::ONE / det;
+        let inv = [[b11 * inv_det, -b01 * inv_det], [-b10 * inv_det, b00 * inv_det]];
+        let coupling = [
+            (wg[0] + gain_m.tr_mul_v(a[0])) * h2,
+            (wg[1] + gain_m.tr_mul_v(a[1])) * h2,
+        ];
+        let rr = [
+            b[0] + h2 * a[0].dot(gain_r),
+            b[1] + h2 * a[1].dot(gain_r),
+        ];
+        let gain = [0, 1].map(|s| coupling[0] * inv[s][0] + coupling[1] * inv[s][1]);
+        let offset = [0, 1].map(|s| inv[s][0] * rr[0] + inv[s][1] * rr[1]);
+        gain_m.add_outer(g[0], gain[0]);
+        gain_m.add_outer(g[1], gain[1]);
+        gain_r = gain_r + g[0] * offset[0] + g[1] * offset[1];
+        joint.v = v;
+        joint.wg = wg;
+        joint.gain = gain;
+        joint.offset = offset;
+        joint.d = d;
+        joint.b = b;
+    }
+
+    // Pass 3, root to tip: the unknowns, and the prefix sums of A x for the check.
+    let mut prefix = V3::default();
+    for joint in &mut ls.joints[..n - 1] {
+        let x = [
+            joint.gain[0].dot(prefix) + joint.offset[0],
+            joint.gain[1].dot(prefix) + joint.offset[1],
+        ];
+        joint.x = x;
+        joint.prefix = prefix;
+        prefix = prefix + joint.a[0] * x[0] + joint.a[1] * x[1];
+    }
+
+    // Pass 4, tip to root: the residual of every row against the size of its terms (as the
+    // scalar solve checks it).
+    let mut suffix = V3::default();
+    let mut worst = L::ZERO;
+    let mut scale = L::ZERO;
+    for joint in ls.joints[..n - 1].iter().rev() {
+        let x = joint.x;
+        if !chain {
+            suffix = V3::default();
+        }
+        suffix = suffix + joint.v[0] * x[0] + joint.v[1] * x[1];
+        for t in 0..2 {
+            let left = h2 * joint.wg[t].dot(joint.prefix);
+            let right = h2 * joint.a[t].dot(suffix);
+            let diag = joint.d[t] * x[t];
+            let residual = diag - left - right - joint.b[t];
+            let size = diag.abs() + left.abs() + right.abs() + joint.b[t].abs();
+            failed |= !(residual.is_finite() & size.is_finite());
+            worst = worst.max(residual.abs());
+            scale = scale.max(size);
+        }
+    }
+    failed |= worst.simd_gt(L::splat(f32::EPSILON.sqrt()) * scale);
+
+    // Last pass, root to tip: the new state and the end-of-step positions and velocities.
+    let mut outcome = [LaneOutcome::Done; LANES];
+    let failed = failed.to_bitmask();
+    for (l, o) in outcome.iter_mut().enumerate() {
+        if failed & (1 << l) != 0 {
+            *o = LaneOutcome::Declined;
+        }
+    }
+    let mut rot = root_rot;
+    let mut omega = V3::default();
+    let mut pos = root_pos;
+    let mut vel = V3::default();
+    let mut bad = L::ZERO.simd_ne(L::ZERO);
+    let members_len = members.len();
+    for i in 1..n {
+        let joint = &ls.joints[i - 1];
+        let w = [
+            node(run.omega_theta, &in_run, i) + joint.x[0],
+            node(run.omega_phi, &in_run, i) + joint.x[1],
+        ];
+        let q = [
+            node(run.theta, &in_run, i) + h * w[0],
+            node(run.phi, &in_run, i) + h * w[1],
+        ];
+        // Quasi-static stretch springs: each segment takes the length its tension asks for.
+        let k_stretch = node(sh.k_stretch, &global, i);
+        let stretched = node(sh.rest_length, &global, i)
+            * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
+        let len = k_stretch
+            .simd_gt(L::ZERO)
+            .select(stretched, node(run.length, &in_run, i));
+        bad |= !(q[0].is_finite() & q[1].is_finite() & w[0].is_finite() & w[1].is_finite());
+        bad |= !len.is_finite();
+        let bend = LaneBend::new(q[0], q[1]);
+        let ax = rot.mul_v(bend.axis_x);
+        let ay = rot.mul_v(bend.axis_y);
+        rot = rot.mul_m(&bend.rotation);
+        let seg = rot.column(2) * len;
+        omega = omega + ax * w[0] + ay * w[1];
+        pos = pos + seg;
+        vel = vel + omega.cross(seg);
+        ls.out[i] = NodeOut {
+            q,
+            w,
+            len,
+            pos,
+            vel,
+        };
+    }
+    let bad = bad.to_bitmask();
+    for (l, o) in outcome.iter_mut().enumerate() {
+        if *o == LaneOutcome::Done && bad & (1 << l) != 0 {
+            *o = LaneOutcome::NonFinite;
+        }
+    }
+    // Lane by lane back to the run: only the strands that succeeded.
+    for l in 0..members_len {
+        if outcome[l] == LaneOutcome::Done {
+            run.positions[in_run[l]] = run.roots[local[l]].position;
+            run.velocities[in_run[l]] = Vector::zeros();
+        }
+    }
+    for i in 1..n {
+        let out = &ls.out[i];
+        let (q0, q1, w0, w1, ln) = (
+            out.q[0].to_array(),
+            out.q[1].to_array(),
+            out.w[0].to_array(),
+            out.w[1].to_array(),
+            out.len.to_array(),
+        );
+        let (px, py, pz) = (out.pos.x.to_array(), out.pos.y.to_array(), out.pos.z.to_array());
+        let (vx, vy, vz) = (out.vel.x.to_array(), out.vel.y.to_array(), out.vel.z.to_array());
+        for l in 0..members_len {
+            if outcome[l] != LaneOutcome::Done {
+                continue;
+            }
+            let at = in_run[l] + i;
+            run.theta[at] = q0[l];
+            run.phi[at] = q1[l];
+            run.omega_theta[at] = w0[l];
+            run.omega_phi[at] = w1[l];
+            run.length[at] = ln[l];
+            run.positions[at] = Point::new(px[l], py[l], pz[l]);
+            run.velocities[at] = Vector::new(vx[l], vy[l], vz[l]);
+        }
+    }
+    outcome
+}
+
+/// The bend `(x, y)` in lanes: as [`crate::bend::Bend::new`].
+struct LaneBend {
+    rotation: M3,
+    axis_x: V3,
+    axis_y: V3,
+}
+
+impl LaneBend {
+    #[inline(always)]
+    fn new(x: L, y: L) -> Self {
+        let a2 = x * x + y * y;
+        let small_limit = L::splat(1e-4);
+        let small = a2.simd_lt(small_limit);
+        let one = L::ONE;
+        // Series near zero, where the closed forms cancel; the closed forms on a clamped angle
+        // so that the lanes not taking them stay finite.
+        let s_series = one - a2 / L::splat(6.0) + a2 * a2 / L::splat(120.0);
+        let c_series = L::splat(0.5) - a2 / L::splat(24.0) + a2 * a2 / L::splat(720.0);
+        let e_series = one / L::splat(6.0) - a2 / L::splat(120.0);
+        let a2c = a2.max(small_limit);
+        let a = a2c.sqrt();
+        let (sin, cos) = a.sin_cos();
+        let s = small.select(s_series, sin / a);
+        let c = small.select(c_series, (one - cos) / a2c);
+        let e = small.select(e_series, (a - sin) / (a2c * a));
+        let cxy = c * x * y;
+        let rotation = M3 {
+            r: [
+                V3 {
+                    x: one - c * y * y,
+                    y: cxy,
+                    z: s * y,
+                },
+                V3 {
+                    x: cxy,
+                    y: one - c * x * x,
+                    z: -s * x,
+                },
+                V3 {
+                    x: -s * y,
+                    y: s * x,
+                    z: one - c * a2,
+                },
+            ],
+        };
+        let exy = e * x * y;
+        Self {
+            rotation,
+            axis_x: V3 {
+                x: one - e * y * y,
+                y: exy,
+                z: -c * y,
+            },
+            axis_y: V3 {
+                x: exy,
+                y: one - e * x * x,
+                z: c * x,
+            },
+        }
+    }
+}
