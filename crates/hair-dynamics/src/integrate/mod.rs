@@ -453,20 +453,24 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
             let mut group = [0usize; lanes::LANES];
             let mut members = 0;
             let mut group_n = 0;
-            let flush = |run: &mut Run<'_>, group: &[usize], n: usize, fallbacks: &mut usize,
-                             scalar: &mut dyn FnMut(&mut Run<'_>, usize, &StepSettings)| {
-                let outcome = lanes::step_group(run, sh, group, n);
-                for (&local, o) in group.iter().zip(outcome) {
-                    match o {
-                        lanes::LaneOutcome::Done => {}
-                        lanes::LaneOutcome::Declined => {
-                            *fallbacks += 1;
-                            scalar(run, local, &dense);
+            let flush =
+                |run: &mut Run<'_>,
+                 group: &[usize],
+                 n: usize,
+                 fallbacks: &mut usize,
+                 scalar: &mut dyn FnMut(&mut Run<'_>, usize, &StepSettings)| {
+                    let outcome = lanes::step_group(run, sh, group, n);
+                    for (&local, o) in group.iter().zip(outcome) {
+                        match o {
+                            lanes::LaneOutcome::Done => {}
+                            lanes::LaneOutcome::Declined => {
+                                *fallbacks += 1;
+                                scalar(run, local, &dense);
+                            }
+                            lanes::LaneOutcome::NonFinite => scalar(run, local, &sh.settings),
                         }
-                        lanes::LaneOutcome::NonFinite => scalar(run, local, &sh.settings),
                     }
-                }
-            };
+                };
             for local in 0..run.roots.len() {
                 let s = run.first + local;
                 if !sh.active[s] {
@@ -478,19 +482,37 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                     continue;
                 }
                 if members > 0 && n != group_n {
-                    flush(&mut run, &group[..members], group_n, &mut fallbacks, &mut scalar);
+                    flush(
+                        &mut run,
+                        &group[..members],
+                        group_n,
+                        &mut fallbacks,
+                        &mut scalar,
+                    );
                     members = 0;
                 }
                 group_n = n;
                 group[members] = local;
                 members += 1;
                 if members == lanes::LANES {
-                    flush(&mut run, &group[..members], group_n, &mut fallbacks, &mut scalar);
+                    flush(
+                        &mut run,
+                        &group[..members],
+                        group_n,
+                        &mut fallbacks,
+                        &mut scalar,
+                    );
                     members = 0;
                 }
             }
             if members > 0 {
-                flush(&mut run, &group[..members], group_n, &mut fallbacks, &mut scalar);
+                flush(
+                    &mut run,
+                    &group[..members],
+                    group_n,
+                    &mut fallbacks,
+                    &mut scalar,
+                );
             }
             sc.dense_fallbacks += fallbacks;
         } else {
