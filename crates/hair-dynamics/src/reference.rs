@@ -206,6 +206,14 @@ impl ReferenceStrand {
 #[derive(Default)]
 pub struct ReferenceScratch(Scratch<f64>);
 
+impl ReferenceScratch {
+    /// [`crate::Integrator::ImplicitBdf2`] steps taken with this scratch whose error estimate
+    /// failed, so that they were redone as the coupled step (backward Euler).
+    pub fn bdf2_fallbacks(&self) -> usize {
+        self.0.bdf2_fallbacks
+    }
+}
+
 /// Tip of a cantilever under its own weight (inextensible elastica), clamped horizontally.
 ///
 /// `alpha = q L^3 / EI`. Returns the tip position over the length, `(x / L, y / L)` with x along

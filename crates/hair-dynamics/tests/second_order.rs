@@ -43,6 +43,13 @@ fn tip_after(k: Real, integrator: Integrator, dt: f64, t_end: f64) -> nalgebra::
     for _ in 0..steps {
         assert!(strand.step(&Environment::default(), &set, &mut scratch));
     }
+    if integrator == Integrator::ImplicitBdf2 {
+        println!(
+            "bdf2 at 1/{} s: {} of {steps} steps redone as backward Euler",
+            1.0 / dt,
+            scratch.bdf2_fallbacks()
+        );
+    }
     *strand.positions().last().unwrap()
 }
 
@@ -187,7 +194,9 @@ fn coordinates(state: &StrandState) -> Vec<u32> {
 #[test]
 fn bdf2_starts_and_restarts_with_backward_euler() {
     let env = Environment::default();
-    let dt = 1.0 / 60.0;
+    // A step at which no BDF2 step of this strand fails its error estimate (at 1/60 s the
+    // release's jolt makes some early steps backward Euler).
+    let dt = 1.0 / 128.0;
     let bdf2 = settings(dt, Integrator::ImplicitBdf2, TorqueModel::Chain);
     let coupled = settings(dt, Integrator::ImplicitCoupled, TorqueModel::Chain);
     let (start, id) = standard_strand(1e-3);
@@ -198,18 +207,30 @@ fn bdf2_starts_and_restarts_with_backward_euler() {
     let (b1, c1) = (after(start.clone(), &bdf2), after(start.clone(), &coupled));
     assert_eq!(coordinates(&b1), coordinates(&c1), "first step");
     let (b2, c2) = (after(b1.clone(), &bdf2), after(b1.clone(), &coupled));
-    assert_ne!(coordinates(&b2), coordinates(&c2), "the second step uses the history");
+    assert_ne!(
+        coordinates(&b2),
+        coordinates(&c2),
+        "the second step uses the history"
+    );
 
     // A tool (or a collision response) rewrites an angle: the next step is backward Euler.
     let mut edited = b2.clone();
     let tip = state_tip(&edited, id);
     edited.theta_mut()[tip] += 0.01;
     let (b3, c3) = (after(edited.clone(), &bdf2), after(edited, &coupled));
-    assert_eq!(coordinates(&b3), coordinates(&c3), "after an edit of an angle");
+    assert_eq!(
+        coordinates(&b3),
+        coordinates(&c3),
+        "after an edit of an angle"
+    );
     let mut edited = b2.clone();
     edited.rates_mut().1[tip] *= 0.5;
     let (b3, c3) = (after(edited.clone(), &bdf2), after(edited, &coupled));
-    assert_eq!(coordinates(&b3), coordinates(&c3), "after an edit of a rate");
+    assert_eq!(
+        coordinates(&b3),
+        coordinates(&c3),
+        "after an edit of a rate"
+    );
 
     // A new step size: backward Euler again (BDF2's coefficients assume equal steps).
     let half = settings(dt / 2.0, Integrator::ImplicitBdf2, TorqueModel::Chain);
@@ -220,7 +241,11 @@ fn bdf2_starts_and_restarts_with_backward_euler() {
     // Steps of another integrator in between: restart as well.
     let c_then_b = after(after(b2.clone(), &coupled), &bdf2);
     let c_then_c = after(after(b2, &coupled), &coupled);
-    assert_eq!(coordinates(&c_then_b), coordinates(&c_then_c), "after a coupled step");
+    assert_eq!(
+        coordinates(&c_then_b),
+        coordinates(&c_then_c),
+        "after a coupled step"
+    );
 }
 
 /// Index of the last node of skeleton `id`.

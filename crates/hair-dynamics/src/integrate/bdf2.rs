@@ -30,10 +30,21 @@ pub(crate) struct Previous<'a, T: RealField + Copy> {
     pub root_velocity: Vector3<T>,
 }
 
+/// Largest local error (rad, BDF2's estimate on any angle) a BDF2 step may make; a step that
+/// exceeds it is redone as the coupled step (backward Euler) from the same state.
+const ERROR_TOLERANCE: f64 = 0.01;
+
 /// One BDF2 step of a strand whose torques and Jacobian sums at `y_n` (`q`, `w`, `root`) are in
-/// `sc`. `frame_spin` as in the coupled step. A free root's translation takes BDF2 with its
-/// acceleration at `y_n`. A singular system leaves the angles non-finite on purpose (the caller
-/// restores the strand and reports it).
+/// `sc`, and `y_n` itself in `sc.q0`, `sc.w0`. `frame_spin` as in the coupled step. A free root's
+/// translation takes BDF2 with its acceleration at `y_n`.
+///
+/// The linearisation at `y_n` is only trusted for a bounded change of the angles: where a soft
+/// strand whips at a large step it fails, and BDF2, which damps far less than backward Euler,
+/// then gains energy. So the step estimates its local error from the velocities it has,
+/// `(2/9) h^3 q'''` as `(b / 3) (w_{n+1} - 2 w_n + w_{n-1})`, and a step whose estimate exceeds
+/// [`ERROR_TOLERANCE`] on any angle is redone as the coupled step. Returns whether it was. A
+/// singular system leaves the angles non-finite on purpose (the caller restores the strand and
+/// reports it).
 #[expect(
     clippy::too_many_arguments,
     reason = "the kernel's inputs are all distinct slices"
@@ -49,12 +60,15 @@ pub(super) fn solve_step<T: RealField + Copy>(
     settings: &StepSettings,
     frame_spin: Option<Vector3<T>>,
     sc: &mut Scratch<T>,
-) {
+) -> bool {
     let m2 = q.len();
+    let root0 = *root;
     let three = T::one() + T::one() + T::one();
     let b = (h + h) / three;
     let mut shift = std::mem::take(&mut sc.stage_q);
     let mut w_eff = std::mem::take(&mut sc.stage_w);
+    let mut tau0 = std::mem::take(&mut sc.acc_q);
+    tau0[..m2].copy_from_slice(&sc.tau[..m2]);
     for c in 0..m2 {
         let a = (q[c] - previous.q[c]) / three;
         let dv = (w[c] - previous.w[c]) / three;
@@ -67,24 +81,41 @@ pub(super) fn solve_step<T: RealField + Copy>(
         // make them those of `w + a / b` (same angles, so the same positions and axes).
         strand::forward(root, q, &w_eff[..m2], length, sc);
     }
-    if !solve_system(root, p, &w_eff[..m2], b, settings, frame_spin, sc) {
-        sc.rhs[..m2]
-            .iter_mut()
-            .for_each(|x| *x = T::zero() / T::zero());
+    let solved = solve_system(root, p, &w_eff[..m2], b, settings, frame_spin, sc);
+    let tol = T::from_f64(ERROR_TOLERANCE).unwrap_or_else(T::zero);
+    let mut within = solved;
+    if solved {
+        for c in 0..m2 {
+            let w_new = w[c] + sc.rhs[c];
+            let error = b / three * (w_new - (w[c] + w[c]) + previous.w[c]);
+            // Written so that a NaN fails too.
+            within &= error.abs() <= tol;
+            w[c] = w_new;
+            q[c] += shift[c] + b * w_new;
+        }
     }
-    for c in 0..m2 {
-        w[c] += sc.rhs[c];
-        q[c] += shift[c] + b * w[c];
-    }
-    if root.free {
-        let velocity = root.velocity
-            + (root.velocity - previous.root_velocity) / three
-            + sc.root_acc * b;
+    if within && root.free {
+        let velocity =
+            root.velocity + (root.velocity - previous.root_velocity) / three + sc.root_acc * b;
         root.position += (root.position - previous.root_position) / three + velocity * b;
         root.velocity = velocity;
     }
+    if !within {
+        // Backward Euler from `y_n` with the torques at `y_n`.
+        q.copy_from_slice(&sc.q0[..m2]);
+        w.copy_from_slice(&sc.w0[..m2]);
+        sc.tau[..m2].copy_from_slice(&tau0[..m2]);
+        *root = root0;
+        if frame_spin.is_some() {
+            strand::forward(root, q, w, length, sc);
+        }
+        super::implicit_coupled::solve_step(root, p, q, w, h, settings, frame_spin, sc);
+        super::symplectic_root(root, sc.root_acc, h);
+    }
     sc.stage_q = shift;
     sc.stage_w = w_eff;
+    sc.acc_q = tau0;
+    !within
 }
 
 /// A tag of a strand's coordinates (`q`, `w`), its root (position, rotation, velocity) and the

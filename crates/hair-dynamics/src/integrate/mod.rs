@@ -238,9 +238,11 @@ pub(crate) fn step_strand<T: RealField + Copy>(
             let spin =
                 (env.has_frame_motion && env.omega.norm_squared() > T::zero()).then_some(env.omega);
             match previous.filter(|_| settings.integrator == Integrator::ImplicitBdf2) {
-                Some(previous) => bdf2::solve_step(
-                    root, p, q, w, length, previous, h, settings, spin, sc,
-                ),
+                Some(previous) => {
+                    if bdf2::solve_step(root, p, q, w, length, previous, h, settings, spin, sc) {
+                        sc.bdf2_fallbacks += 1;
+                    }
+                }
                 None => {
                     implicit_coupled::solve_step(root, p, q, w, h, settings, spin, sc);
                     symplectic_root(root, sc.root_acc, h);
