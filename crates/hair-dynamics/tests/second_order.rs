@@ -164,7 +164,9 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
             // second second at 1.002 times the first second's peak speed (RK4: 0.71), with no
             // step failing the error estimate (docs/dynamics.md).
             assert!(
-                unstable.iter().all(|&(k, sps)| sps == 400 && (k - 1e-4).abs() < 1e-9),
+                unstable
+                    .iter()
+                    .all(|&(k, sps)| sps == 400 && (k - 1e-4).abs() < 1e-9),
                 "{integrator:?}: unstable cells {unstable:?}"
             );
         } else if integrator != Integrator::ImplicitRos3 {
