@@ -10,6 +10,7 @@
 //! | [`Scene`], [`LoadedScene`] | serde scene data (`scenes/*.ron`, `docs/scene-format.md`) |
 //! | [`Simulation`], [`StepStats`] | the per-step pipeline and what each step cost |
 //! | [`Simulation::from_groom`], [`Body`], [`Simulation::set_head_pose`] | a simulation built from data and driven by its caller |
+//! | [`Simulation::add_body_part`], [`Simulation::set_body_part_pose`], [`BodyPart`] | rigid body parts (neck, torso) the caller poses, colliding as they move |
 //! | [`salon`]: [`ToolEvent`], [`ToolScript`], [`Salon`] | salon tools (water, spray, mousse, dryer, grab, scissors) driven by a replayable timeline of events |
 //! | [`body_from_spec`] | the scene's body (procedural head, wrinkled torus or OBJ) as a [`ssv::MeshBody`] |
 //!
@@ -52,6 +53,7 @@ mod embed;
 mod error;
 pub mod hairstyle;
 mod lod_stage;
+mod parts;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod scene;
@@ -62,6 +64,7 @@ pub use dynamics::{HeadPose, TeleportLimits};
 pub use embed::Body;
 pub use error::HairError;
 pub use hair_render::stage::RenderGeometry;
+pub use parts::{BodyPart, PartId};
 pub use salon::{
     Pose, PoseKey, Salon, SalonError, SalonSettings, SalonStats, Tool, ToolAction, ToolEvent,
     ToolScript,

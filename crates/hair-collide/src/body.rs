@@ -4,6 +4,7 @@
 use crate::CollisionSettings;
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
 use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
+use nalgebra::Isometry3;
 use rayon::prelude::*;
 
 /// What one application of the body constraint found.
@@ -38,6 +39,8 @@ pub struct BodyConstraint {
     allowance: Vec<Real>,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
+    /// A moving part's contacts as node velocities (head frame).
+    surface_targets: Vec<(u32, Vector)>,
 }
 
 impl BodyConstraint {
@@ -86,6 +89,46 @@ impl BodyConstraint {
         &mut self,
         state: &mut StrandState,
         body: &MeshBody,
+        front: &[u32],
+        step: u64,
+        settings: &CollisionSettings,
+    ) -> Result<BodyReport, DynamicsError> {
+        let surface = Surface { body, motion: None };
+        self.apply_to(state, &surface, front, step, settings)
+    }
+
+    /// [`BodyConstraint::apply`] for a body part that moves rigidly: `body` is in the part's
+    /// own frame, placed in the hair's frame by `motion.pose` at the end of the step. Each node
+    /// is tested in the part's frame and moved out along the part's normal as
+    /// [`BodyConstraint::apply`] moves it out of the body. When the part moved over the step
+    /// (`motion.previous` differs from `motion.pose`), the velocity constraint acts on the
+    /// node's velocity relative to the part's surface at that point (from the two poses): the
+    /// approach along the normal is removed, so the node moves out at least as fast as the
+    /// surface, and Coulomb friction (the scene's coefficient times the approach removed) slows
+    /// its sliding along it, so a moving part carries hair resting on it. A part that did not
+    /// move is constrained exactly as the body is (the same result as the same mesh given as
+    /// the body, bit for bit, at the identity pose). Use one constraint per part: it keeps the
+    /// part's ramp allowances.
+    pub fn apply_moving(
+        &mut self,
+        state: &mut StrandState,
+        body: &MeshBody,
+        motion: &PartMotion,
+        front: &[u32],
+        step: u64,
+        settings: &CollisionSettings,
+    ) -> Result<BodyReport, DynamicsError> {
+        let surface = Surface {
+            body,
+            motion: Some(motion),
+        };
+        self.apply_to(state, &surface, front, step, settings)
+    }
+
+    fn apply_to(
+        &mut self,
+        state: &mut StrandState,
+        body: &Surface<'_>,
         front: &[u32],
         step: u64,
         settings: &CollisionSettings,
@@ -382,7 +425,20 @@ impl BodyConstraint {
             });
         }
         if !self.constraints.is_empty() {
-            state.apply_velocity_constraints(&self.constraints)?;
+            match body.motion.filter(|m| m.pose != m.previous) {
+                None => state.apply_velocity_constraints(&self.constraints)?,
+                Some(motion) => {
+                    self.surface_targets.clear();
+                    let velocities = state.velocities();
+                    self.surface_targets
+                        .extend(self.constraints.iter().filter_map(|c| {
+                            let p = state.positions()[c.node as usize];
+                            let v = velocities[c.node as usize];
+                            relative_constraint(v, motion.velocity_at(&p), c).map(|v| (c.node, v))
+                        }));
+                    state.apply_velocity_targets(&self.surface_targets)?;
+                }
+            }
         }
         Ok(BodyReport {
             contacts,
@@ -410,7 +466,7 @@ fn push_body_nodes(out: &mut Vec<BodyNode>, state: &StrandState, n: u32, from: u
 /// straight into a surface swings out of it instead of being re-aimed along itself; where no
 /// place on that sphere is high enough, turned out ([`turn_out`]) by `method`.
 fn body_target(
-    body: &MeshBody,
+    body: &Surface<'_>,
     method: CollisionMethod,
     p: Point,
     parent: Option<&Point>,
@@ -447,7 +503,7 @@ fn body_target(
 /// A node that swung up into the underside of a part finds its nearest surface on the top, out
 /// of reach of its segment; this sends it back out the side it came in by.
 fn turn_out(
-    body: &MeshBody,
+    body: &Surface<'_>,
     method: CollisionMethod,
     a: Point,
     u0: Vector,
@@ -471,7 +527,7 @@ fn turn_out(
 /// the exact distance; failing that, the one whose point is least deep, if it is less deep than
 /// the node (`depth`) now. `None` when no direction improves on where the node is.
 fn escape(
-    body: &MeshBody,
+    body: &Surface<'_>,
     a: Point,
     u0: Vector,
     len: Real,
@@ -537,4 +593,85 @@ struct BodyNode {
     prev: u32,
     skeleton: u32,
     radius: Real,
+}
+
+/// Where a rigid body part is over one step, in the hair's (head) frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PartMotion {
+    /// Head from part at the end of the step: where the part is when the hair is tested.
+    pub pose: Isometry3<Real>,
+    /// Head from part at the start of the step (the surface's velocity is the change).
+    pub previous: Isometry3<Real>,
+    /// The step (s).
+    pub dt: Real,
+}
+
+impl PartMotion {
+    /// The velocity (head frame) of the part's material point that is at `p` at the end of the
+    /// step: where it is less where it was, over the step.
+    pub fn velocity_at(&self, p: &Point) -> Vector {
+        let local = self.pose.inverse_transform_point(p);
+        (p - self.previous * local) / self.dt
+    }
+}
+
+/// A body as the constraint queries it: a mesh in the hair's frame, or a part's mesh in its own
+/// frame posed in the hair's (positions in, normals out transformed).
+struct Surface<'a> {
+    body: &'a MeshBody,
+    motion: Option<&'a PartMotion>,
+}
+
+impl Surface<'_> {
+    /// [`MeshBody::distance_within`] at `p` (hair frame), the normal in the hair frame.
+    #[inline]
+    fn distance_within(
+        &self,
+        method: CollisionMethod,
+        p: &Point,
+        reach: Real,
+    ) -> Option<(Real, Vector)> {
+        match self.motion {
+            None => self.body.distance_within(method, p, reach),
+            Some(m) => {
+                let local = m.pose.inverse_transform_point(p);
+                let hit = self.body.distance_within(method, &local, reach);
+                hit.map(|(d, n)| (d, m.pose.rotation * n))
+            }
+        }
+    }
+
+    /// [`MeshBody::distance`] at `p` (hair frame), the normal in the hair frame.
+    #[inline]
+    fn distance(&self, method: CollisionMethod, p: &Point) -> Option<(Real, Vector)> {
+        match self.motion {
+            None => self.body.distance(method, p),
+            Some(m) => {
+                let local = m.pose.inverse_transform_point(p);
+                let hit = self.body.distance(method, &local);
+                hit.map(|(d, n)| (d, m.pose.rotation * n))
+            }
+        }
+    }
+}
+
+/// The velocity a node moving at `v` against a surface moving at `surface` gets from the contact
+/// `c`: its approach along the normal relative to the surface removed, its sliding relative to
+/// the surface slowed by Coulomb friction (the friction coefficient times the approach removed,
+/// at most to rest on the surface). `None` when it is not approaching.
+fn relative_constraint(v: Vector, surface: Vector, c: &VelocityConstraint) -> Option<Vector> {
+    let n = c.normal.try_normalize(1e-12)?;
+    let relative = v - surface;
+    let approach = relative.dot(&n);
+    if approach >= 0.0 {
+        return None;
+    }
+    let slide = relative - n * approach;
+    let speed = slide.norm();
+    let keep = if speed > 0.0 {
+        (1.0 - c.friction.min(1.0) * -approach / speed).max(0.0)
+    } else {
+        0.0
+    };
+    Some(surface + slide * keep)
 }
