@@ -7,7 +7,9 @@
 use crate::TorqueModel;
 use crate::bend::Bend;
 use crate::environment::LocalEnv;
-use nalgebra::{Matrix2x3, Matrix3, Matrix3x2, RealField, Vector2, Vector3};
+use nalgebra::{
+    Matrix2x3, Matrix3, Matrix3x2, Matrix6, RealField, SMatrix, Vector2, Vector3, Vector6,
+};
 
 /// Read-only per-node parameters of one strand (slices of length `n`).
 #[derive(Clone, Copy)]
@@ -68,6 +70,15 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub sweep_prefix: Vec<Vector3<T>>,
     pub sweep_diag: Vec<Vector2<T>>,
     pub sweep_rhs: Vec<Vector2<T>>,
+    // The turning head frame's terms (`integrate::rotating_frame`), per joint: the sum `S` over
+    // the nodes it carries, the suffix and row generators, the gain, the prefix sum of the twists;
+    // and `Z w` per coordinate. Sized on first use in a turning frame.
+    pub frame_s: Vec<Matrix6<T>>,
+    pub frame_u: Vec<SMatrix<T, 9, 2>>,
+    pub frame_l: Vec<SMatrix<T, 6, 2>>,
+    pub frame_gain: Vec<SMatrix<T, 2, 6>>,
+    pub frame_prefix: Vec<Vector6<T>>,
+    pub frame_zw: Vec<T>,
     /// Structured solves that failed their residual check and were redone densely.
     pub dense_fallbacks: usize,
     // Integrator stages.

@@ -12,6 +12,7 @@
 
 mod implicit_coupled;
 mod rosenbrock;
+mod rotating_frame;
 
 use crate::environment::LocalEnv;
 use crate::run::Run;
@@ -216,7 +217,11 @@ pub(crate) fn step_strand<T: RealField + Copy>(
         }
         Integrator::ImplicitCoupled => {
             eval(root, q, w, length, true, sc);
-            implicit_coupled::solve_step(root, p, q, w, h, settings, sc);
+            // A turning head's Coriolis and centrifugal forces are implicit too: held explicit,
+            // the gyroscopic term gains energy every step (see `rotating_frame`).
+            let spin =
+                (env.has_frame_motion && env.omega.norm_squared() > T::zero()).then_some(env.omega);
+            implicit_coupled::solve_step(root, p, q, w, h, settings, spin, sc);
             symplectic_root(root, sc.root_acc, h);
         }
         Integrator::ImplicitRos2 => {

@@ -219,7 +219,7 @@ pub(super) fn step<T: RealField + Copy>(
             rq[c] = r_q;
             sc.tau[c] = ftau[c] + sc.inertia[c] * r_w;
         }
-        if !solve_system(root, p, &rq[..m2], hg, settings, sc) {
+        if !solve_system(root, p, &rq[..m2], hg, settings, None, sc) {
             solved = false;
             break;
         }
