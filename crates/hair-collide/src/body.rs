@@ -39,8 +39,8 @@ pub struct BodyConstraint {
     allowance: Vec<Real>,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
-    /// A moving part's contacts as node velocities (head frame).
-    surface_targets: Vec<(u32, Vector)>,
+    /// A moving part's surface velocity (head frame) at each constraint's node.
+    surface_velocities: Vec<Vector>,
 }
 
 impl BodyConstraint {
@@ -428,15 +428,17 @@ impl BodyConstraint {
             match body.motion.filter(|m| m.pose != m.previous) {
                 None => state.apply_velocity_constraints(&self.constraints)?,
                 Some(motion) => {
-                    self.surface_targets.clear();
-                    let velocities = state.velocities();
-                    self.surface_targets
-                        .extend(self.constraints.iter().filter_map(|c| {
-                            let p = state.positions()[c.node as usize];
-                            let v = velocities[c.node as usize];
-                            relative_constraint(v, motion.velocity_at(&p), c).map(|v| (c.node, v))
-                        }));
-                    state.apply_velocity_targets(&self.surface_targets)?;
+                    let positions = state.positions();
+                    self.surface_velocities.clear();
+                    self.surface_velocities.extend(
+                        self.constraints
+                            .iter()
+                            .map(|c| motion.velocity_at(&positions[c.node as usize])),
+                    );
+                    state.apply_velocity_constraints_on_surfaces(
+                        &self.constraints,
+                        &self.surface_velocities,
+                    )?;
                 }
             }
         }
@@ -653,25 +655,4 @@ impl Surface<'_> {
             }
         }
     }
-}
-
-/// The velocity a node moving at `v` against a surface moving at `surface` gets from the contact
-/// `c`: its approach along the normal relative to the surface removed, its sliding relative to
-/// the surface slowed by Coulomb friction (the friction coefficient times the approach removed,
-/// at most to rest on the surface). `None` when it is not approaching.
-fn relative_constraint(v: Vector, surface: Vector, c: &VelocityConstraint) -> Option<Vector> {
-    let n = c.normal.try_normalize(1e-12)?;
-    let relative = v - surface;
-    let approach = relative.dot(&n);
-    if approach >= 0.0 {
-        return None;
-    }
-    let slide = relative - n * approach;
-    let speed = slide.norm();
-    let keep = if speed > 0.0 {
-        (1.0 - c.friction.min(1.0) * -approach / speed).max(0.0)
-    } else {
-        0.0
-    };
-    Some(surface + slide * keep)
 }
