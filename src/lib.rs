@@ -16,20 +16,24 @@
 //!
 //! Embedded in an engine, with no scene file (`examples/embed.rs` in full): a groom from arrays,
 //! the head posed each step (velocities and accelerations are estimated from the poses; a jump
-//! beyond [`TeleportLimits`] is a teleport), the drawn strands borrowed, not copied.
+//! beyond [`TeleportLimits`] is a teleport), the torso a separate part posed beside it, the
+//! drawn strands borrowed, not copied.
 //!
 //! ```
-//! use hair::{Body, Scene, Simulation};
+//! use hair::{Body, PartId, Scene, Simulation};
 //! use nalgebra::{Isometry3, Vector3};
 //!
 //! let roots = (0..20).map(|i| [0.02 * (i as f32 - 10.0), 0.13, -0.05]);
 //! let groom = roots.map(|[x, y, z]| (0..8).map(|k| [x, y, z - 0.03 * k as f32]).collect());
 //! let groom = hair::io::Strands::from_polylines(groom.collect())?;
-//! let mut sim = Simulation::from_groom(&groom, Body::Head { resolution: 16 }, &Scene::default())?;
+//! let body = Body::HeadNeckTorso { resolution: 16 }; // parts: 0 the neck, 1 the torso
+//! let mut sim = Simulation::from_groom(&groom, body, &Scene::default())?;
 //! for _ in 0..30 {
 //!     let t = sim.time() + sim.dt(); // the pose the head reaches at the end of the step
 //!     let turn = Vector3::y() * 0.4 * (6.0 * t).sin();
 //!     sim.set_head_pose(Isometry3::new(Vector3::zeros(), turn))?;
+//!     let lean = Vector3::x() * 0.1 * (3.0 * t).sin(); // the torso leans, the hair meets it
+//!     sim.set_body_part_pose(PartId(1), Isometry3::new(Vector3::zeros(), lean))?;
 //!     let stats = sim.step()?;
 //!     let tip = sim.render_geometry().strand(0).last().copied(); // a slice into the sim
 //!     println!("{:.2} ms, tip {tip:?}", stats.ms_total);
