@@ -1,11 +1,11 @@
 //! Embedding the simulation in an engine: no scene file. A groom from arrays of points on the
 //! procedural head, a loop that poses the head each step (a sine: nodding and turning) for three
-//! seconds, and per step its time and the tip of one strand, read from the drawn strands
-//! without a copy.
+//! seconds, the torso (a separate rigid part) swaying under it, and per step its time and the
+//! tip of one strand, read from the drawn strands without a copy.
 //!
 //! Run from the workspace root: `cargo run --release --example embed`.
 
-use hair::{Body, HairError, Scene, Simulation};
+use hair::{Body, HairError, PartId, Scene, Simulation};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::f32::consts::TAU;
 use std::time::Instant;
@@ -45,17 +45,28 @@ pub fn head_pose(t: f32) -> Isometry3<f32> {
     )
 }
 
+/// The torso's pose at time `t` (s): leaning 0.15 rad forward and back about the waist, 0.6 m
+/// below the head's centre.
+pub fn torso_pose(t: f32) -> Isometry3<f32> {
+    let waist = Vector3::new(0.0, -0.6, 0.0);
+    let lean = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), 0.15 * (TAU * 0.5 * t).sin());
+    Translation3::from(waist) * lean * Translation3::from(-waist)
+}
+
 /// Simulates `seconds` of the head driven by [`head_pose`], calling `report` with each step's
 /// line; returns the last tip of strand 0 (m, world).
 pub fn run(seconds: f32, mut report: impl FnMut(&str)) -> Result<[f32; 3], HairError> {
     let strands = hair::io::Strands::from_polylines(groom(300, 12, 0.25))?;
-    let body = Body::Head { resolution: 32 };
+    // The head is the body; the neck (part 0) and torso (part 1) move as the caller poses them.
+    let body = Body::HeadNeckTorso { resolution: 32 };
     let mut sim = Simulation::from_groom(&strands, body, &Scene::default())?;
     let steps = (seconds / sim.dt()).round() as u32;
     let mut tip = [0.0; 3];
     for _ in 0..steps {
         // The pose the head reaches at the end of this step.
-        sim.set_head_pose(head_pose(sim.time() + sim.dt()))?;
+        let t = sim.time() + sim.dt();
+        sim.set_head_pose(head_pose(t))?;
+        sim.set_body_part_pose(PartId(1), torso_pose(t))?;
         let start = Instant::now();
         let stats = sim.step()?;
         let ms = start.elapsed().as_secs_f64() * 1e3;

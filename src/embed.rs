@@ -17,6 +17,15 @@ pub enum Body {
         /// Mesh resolution (64 is the scenes' default).
         resolution: u32,
     },
+    /// The procedural head as the body, and its neck and torso as separate rigid parts
+    /// ([`hair_ssv::head::head_neck_torso`]; [`crate::PartId`] 0 the neck, 1 the torso), each
+    /// in the head's frame at rest: posed at the head's pose they are where
+    /// [`Body::Head`]'s neck and shoulders are. Move them with
+    /// [`Simulation::set_body_part_pose`]; until then they hold their place in the world.
+    HeadNeckTorso {
+        /// Mesh resolution (64 is the scenes' default).
+        resolution: u32,
+    },
     /// A triangle mesh (m, head frame): an error for a degenerate triangle, an index out of
     /// range or a non-finite vertex.
     Mesh {
@@ -58,6 +67,17 @@ impl Simulation {
         let spec = match body {
             Body::None => crate::scene::BodySpec::None,
             Body::Head { resolution } => crate::scene::BodySpec::Head { resolution },
+            Body::HeadNeckTorso { resolution } => {
+                let [head, neck, torso] = hair_ssv::head::head_neck_torso(resolution as usize);
+                let head = MeshBody::new(head.0, head.1)?;
+                let mut sim =
+                    Self::build(settings.clone(), style, Some(head), "groom", settings.lod)?;
+                let rest = *sim.head.current();
+                for (name, (v, t)) in [("neck", neck), ("torso", torso)] {
+                    sim.push_part(name, MeshBody::new(v, t)?, rest);
+                }
+                return Ok(sim);
+            }
             Body::Mesh {
                 vertices,
                 triangles,

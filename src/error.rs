@@ -125,6 +125,23 @@ pub enum HairError {
         #[source]
         source: hair_ssv::SsvError,
     },
+    /// A body part's mesh or pose cannot be used ([`crate::Simulation::add_body_part`],
+    /// [`crate::Simulation::set_body_part_pose`]): a degenerate mesh, a non-finite pose.
+    #[error("body part `{part}`: {message}")]
+    BodyPart {
+        /// The part's name.
+        part: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// No body part has this id.
+    #[error("no body part {id} (the simulation has {count})")]
+    UnknownBodyPart {
+        /// The id asked for.
+        id: usize,
+        /// How many parts the simulation has.
+        count: usize,
+    },
 }
 
 impl From<hair_salon::SalonError> for HairError {

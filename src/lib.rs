@@ -10,25 +10,30 @@
 //! | [`Scene`], [`LoadedScene`] | serde scene data (`scenes/*.ron`, `docs/scene-format.md`) |
 //! | [`Simulation`], [`StepStats`] | the per-step pipeline and what each step cost |
 //! | [`Simulation::from_groom`], [`Body`], [`Simulation::set_head_pose`] | a simulation built from data and driven by its caller |
+//! | [`Simulation::add_body_part`], [`Simulation::set_body_part_pose`], [`BodyPart`] | rigid body parts (neck, torso) the caller poses, colliding as they move |
 //! | [`salon`]: [`ToolEvent`], [`ToolScript`], [`Salon`] | salon tools (water, spray, mousse, dryer, grab, scissors) driven by a replayable timeline of events |
 //! | [`body_from_spec`] | the scene's body (procedural head, wrinkled torus or OBJ) as a [`ssv::MeshBody`] |
 //!
 //! Embedded in an engine, with no scene file (`examples/embed.rs` in full): a groom from arrays,
 //! the head posed each step (velocities and accelerations are estimated from the poses; a jump
-//! beyond [`TeleportLimits`] is a teleport), the drawn strands borrowed, not copied.
+//! beyond [`TeleportLimits`] is a teleport), the torso a separate part posed beside it, the
+//! drawn strands borrowed, not copied.
 //!
 //! ```
-//! use hair::{Body, Scene, Simulation};
+//! use hair::{Body, PartId, Scene, Simulation};
 //! use nalgebra::{Isometry3, Vector3};
 //!
 //! let roots = (0..20).map(|i| [0.02 * (i as f32 - 10.0), 0.13, -0.05]);
 //! let groom = roots.map(|[x, y, z]| (0..8).map(|k| [x, y, z - 0.03 * k as f32]).collect());
 //! let groom = hair::io::Strands::from_polylines(groom.collect())?;
-//! let mut sim = Simulation::from_groom(&groom, Body::Head { resolution: 16 }, &Scene::default())?;
+//! let body = Body::HeadNeckTorso { resolution: 16 }; // parts: 0 the neck, 1 the torso
+//! let mut sim = Simulation::from_groom(&groom, body, &Scene::default())?;
 //! for _ in 0..30 {
 //!     let t = sim.time() + sim.dt(); // the pose the head reaches at the end of the step
 //!     let turn = Vector3::y() * 0.4 * (6.0 * t).sin();
 //!     sim.set_head_pose(Isometry3::new(Vector3::zeros(), turn))?;
+//!     let lean = Vector3::x() * 0.1 * (3.0 * t).sin(); // the torso leans, the hair meets it
+//!     sim.set_body_part_pose(PartId(1), Isometry3::new(Vector3::zeros(), lean))?;
 //!     let stats = sim.step()?;
 //!     let tip = sim.render_geometry().strand(0).last().copied(); // a slice into the sim
 //!     println!("{:.2} ms, tip {tip:?}", stats.ms_total);
@@ -52,6 +57,7 @@ mod embed;
 mod error;
 pub mod hairstyle;
 mod lod_stage;
+mod parts;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod scene;
@@ -62,6 +68,7 @@ pub use dynamics::{HeadPose, TeleportLimits};
 pub use embed::Body;
 pub use error::HairError;
 pub use hair_render::stage::RenderGeometry;
+pub use parts::{BodyPart, PartId};
 pub use salon::{
     Pose, PoseKey, Salon, SalonError, SalonSettings, SalonStats, Tool, ToolAction, ToolEvent,
     ToolScript,

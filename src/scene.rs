@@ -231,7 +231,7 @@ pub enum StyleSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DynamicsSpec {
-    /// Integrator: `ExplicitEuler`, `SymplecticEuler`, `Rk4`, `ImplicitAngular`, `ImplicitCoupled`, `ImplicitRos2`, `ImplicitRos3` (XPBD is the charts' peer only, not selectable).
+    /// Integrator: `ExplicitEuler`, `SymplecticEuler`, `Rk4`, `ImplicitAngular`, `ImplicitCoupled`, `ImplicitRos2`, `ImplicitRos3`, `ImplicitBdf2` (XPBD is the charts' peer only, not selectable).
     pub integrator: Integrator,
     /// Torque model: `Chain` or `Local`.
     pub torque: TorqueModel,

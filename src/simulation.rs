@@ -82,24 +82,26 @@ pub struct StepStats {
 
 /// A scene being simulated.
 pub struct Simulation {
-    scene: Scene,
+    pub(crate) scene: Scene,
     hierarchy: Hierarchy,
     /// The hierarchy nodes simulated (sorted).
-    front_nodes: Vec<u32>,
-    state: StrandState,
+    pub(crate) front_nodes: Vec<u32>,
+    pub(crate) state: StrandState,
     /// The state as built, for [`Simulation::reset`].
     initial: StrandState,
-    body: Option<MeshBody>,
-    settings: StepSettings,
+    pub(crate) body: Option<MeshBody>,
+    pub(crate) settings: StepSettings,
     time: Real,
-    steps: u64,
+    pub(crate) steps: u64,
     lod: LodStage,
     grid: Grid,
     /// The front's segments as grid sections.
     sections: Sections,
     localization: Localization,
     hair_hair: HairHairStage,
-    body_constraint: BodyConstraint,
+    pub(crate) body_constraint: BodyConstraint,
+    /// Rigid body parts the caller poses (`parts.rs`).
+    pub(crate) parts: Vec<crate::parts::BodyPart>,
     salon: Salon,
     /// Per skeleton, its collision radius as built (the salon's tools scale it).
     node_radius: Vec<Real>,
@@ -204,6 +206,7 @@ impl Simulation {
             localization: Localization::default(),
             hair_hair: HairHairStage::new(),
             body_constraint: BodyConstraint::new(),
+            parts: Vec::new(),
             salon,
             node_radius,
             drawn,
@@ -502,15 +505,7 @@ impl Simulation {
         stats.ms_dynamics = clock.lap();
         stats.salon = self.salon_stage(&env)?;
         stats.salon.ms_salon = clock.lap();
-        if let Some(body) = &self.body {
-            let (front, step) = (&self.front_nodes, self.steps);
-            let collision = &self.scene.collision;
-            let report =
-                self.body_constraint
-                    .apply(&mut self.state, body, front, step, collision)?;
-            stats.body_contacts = report.contacts;
-            stats.max_penetration_m = f64::from(report.max_penetration);
-        }
+        self.collide_bodies(&mut stats)?;
         stats.ms_hair_object = clock.lap();
         self.time += self.settings.dt;
         self.steps += 1;

@@ -50,10 +50,10 @@ fn check(cases: &[(&str, Option<LodPolicy>, u32, &str)]) {
 fn builtin_scenes_at_their_own_policy() {
     check(&[
         ("wind", None, 60, "7503e7e61f251afe"),
-        ("shake", None, 60, "7d3b559658e306e2"),
-        ("torus", None, 60, "747ebdd3f506fb2f"),
+        ("shake", None, 60, "12d380855c018333"),
+        ("torus", None, 60, "108ee0d7ffde93a4"),
         ("zoom", None, 60, "e8e60c6ff3eb6a05"),
-        ("bristles", None, 60, "d5ffbe3c16515294"),
+        ("bristles", None, 60, "6c597a9fcab43b7c"),
         ("sintel", None, 60, "400fb40df38285dd"),
     ]);
 }

@@ -579,7 +579,7 @@ fn print_tables(integrators: &[IntegratorRuns], elastica: &[Elastica], steps_per
 }
 
 /// Distinct colours of the methods, in [`Method::all`] order (XPBD last, in black).
-const COLOURS: [RGBColor; 8] = [
+const COLOURS: [RGBColor; 9] = [
     RGBColor(214, 39, 40),
     RGBColor(255, 127, 14),
     RGBColor(31, 119, 180),
@@ -587,6 +587,7 @@ const COLOURS: [RGBColor; 8] = [
     RGBColor(44, 160, 44),
     RGBColor(140, 86, 75),
     RGBColor(23, 190, 207),
+    RGBColor(227, 119, 194),
     RGBColor(0, 0, 0),
 ];
 

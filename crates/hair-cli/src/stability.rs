@@ -86,7 +86,7 @@ pub const ENERGY_TOLERANCE: f64 = 0.05;
 /// All cells of one integrator.
 #[derive(Clone, Debug, Serialize)]
 pub struct IntegratorMap {
-    /// Integrator name (`explicit_euler`, ..., `implicit_ros2`, `implicit_ros3`, `xpbd`).
+    /// Integrator name (`explicit_euler`, ..., `implicit_ros3`, `implicit_bdf2`, `xpbd`).
     pub name: &'static str,
     /// How many cells are stable.
     pub stable_cells: usize,
@@ -305,7 +305,7 @@ fn cell_colour(c: &Cell) -> RGBColor {
     }
 }
 
-/// One heat map per integrator, in a 3 x 3 grid, the panel after the last map holding the legend.
+/// One heat map per integrator, in a 3 x 4 grid, the panel after the last map holding the legend.
 fn draw(
     path: &std::path::Path,
     maps: &[IntegratorMap],
@@ -314,7 +314,7 @@ fn draw(
 ) -> anyhow::Result<()> {
     crate::chart::register_font();
     strand_setup::create_parent(path)?;
-    let root = BitMapBackend::new(path, (1500, 1450)).into_drawing_area();
+    let root = BitMapBackend::new(path, (2000, 1450)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (title, body) = root.split_vertically(50);
     title
@@ -323,7 +323,7 @@ fn draw(
             ("sans-serif", 26),
         )
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let panels = body.split_evenly((3, 3));
+    let panels = body.split_evenly((3, 4));
     let dts: Vec<f64> = STEPS_PER_SECOND
         .iter()
         .map(|s| 1.0 / f64::from(*s))

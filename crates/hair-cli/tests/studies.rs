@@ -63,7 +63,13 @@ fn stability_maps_the_second_order_steps_and_xpbd() {
         "1",
     ]);
     let doc = read_json(&json);
-    for name in ["implicit_coupled", "implicit_ros2", "implicit_ros3", "xpbd"] {
+    for name in [
+        "implicit_coupled",
+        "implicit_ros2",
+        "implicit_ros3",
+        "implicit_bdf2",
+        "xpbd",
+    ] {
         let m = method(&doc, name);
         let cells = m["cells"].as_array().expect("cells");
         assert_eq!(cells.len(), 11, "{name}: one stiffness x 11 steps");
@@ -104,7 +110,13 @@ fn accuracy_runs_xpbd_at_a_hundredth_and_on_the_elastica() {
         "8",
     ]);
     let doc = read_json(&json);
-    for name in ["implicit_coupled", "implicit_ros2", "implicit_ros3", "xpbd"] {
+    for name in [
+        "implicit_coupled",
+        "implicit_ros2",
+        "implicit_ros3",
+        "implicit_bdf2",
+        "xpbd",
+    ] {
         let runs = method(&doc, name)["runs"].as_array().expect("runs");
         let run = runs
             .iter()
@@ -153,13 +165,23 @@ fn bench_dynamics_measures_the_coupled_steps_and_xpbd_in_one_run() {
         "--only",
         "implicit_ros3",
         "--only",
+        "implicit_bdf2",
+        "--only",
         "xpbd",
     ]);
     let doc: Value = serde_json::from_str(&out).expect("one JSON object");
-    for key in ["implicit_coupled", "implicit_ros2", "implicit_ros3", "xpbd"] {
+    for key in [
+        "implicit_coupled",
+        "implicit_ros2",
+        "implicit_ros3",
+        "implicit_bdf2",
+        "xpbd",
+    ] {
         let rate = doc[key]["node_steps_per_s"].as_f64();
         assert!(rate.is_some_and(|r| r > 0.0), "{key}: {doc}");
         assert_eq!(doc[key]["non_finite_steps"], 0, "{key}");
     }
+    let bdf2_cost = doc["implicit_bdf2_cost_over_implicit_coupled"].as_f64();
+    assert!(bdf2_cost.is_some_and(|r| r > 0.0), "{doc}");
     assert_eq!(doc["config"]["nodes"], 16 * 20);
 }

@@ -4,6 +4,7 @@
 use crate::CollisionSettings;
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
 use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
+use nalgebra::Isometry3;
 use rayon::prelude::*;
 
 /// What one application of the body constraint found.
@@ -38,6 +39,8 @@ pub struct BodyConstraint {
     allowance: Vec<Real>,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
+    /// A moving part's surface velocity (head frame) at each constraint's node.
+    surface_velocities: Vec<Vector>,
 }
 
 impl BodyConstraint {
@@ -86,6 +89,46 @@ impl BodyConstraint {
         &mut self,
         state: &mut StrandState,
         body: &MeshBody,
+        front: &[u32],
+        step: u64,
+        settings: &CollisionSettings,
+    ) -> Result<BodyReport, DynamicsError> {
+        let surface = Surface { body, motion: None };
+        self.apply_to(state, &surface, front, step, settings)
+    }
+
+    /// [`BodyConstraint::apply`] for a body part that moves rigidly: `body` is in the part's
+    /// own frame, placed in the hair's frame by `motion.pose` at the end of the step. Each node
+    /// is tested in the part's frame and moved out along the part's normal as
+    /// [`BodyConstraint::apply`] moves it out of the body. When the part moved over the step
+    /// (`motion.previous` differs from `motion.pose`), the velocity constraint acts on the
+    /// node's velocity relative to the part's surface at that point (from the two poses): the
+    /// approach along the normal is removed, so the node moves out at least as fast as the
+    /// surface, and Coulomb friction (the scene's coefficient times the approach removed) slows
+    /// its sliding along it, so a moving part carries hair resting on it. A part that did not
+    /// move is constrained exactly as the body is (the same result as the same mesh given as
+    /// the body, bit for bit, at the identity pose). Use one constraint per part: it keeps the
+    /// part's ramp allowances.
+    pub fn apply_moving(
+        &mut self,
+        state: &mut StrandState,
+        body: &MeshBody,
+        motion: &PartMotion,
+        front: &[u32],
+        step: u64,
+        settings: &CollisionSettings,
+    ) -> Result<BodyReport, DynamicsError> {
+        let surface = Surface {
+            body,
+            motion: Some(motion),
+        };
+        self.apply_to(state, &surface, front, step, settings)
+    }
+
+    fn apply_to(
+        &mut self,
+        state: &mut StrandState,
+        body: &Surface<'_>,
         front: &[u32],
         step: u64,
         settings: &CollisionSettings,
@@ -382,7 +425,22 @@ impl BodyConstraint {
             });
         }
         if !self.constraints.is_empty() {
-            state.apply_velocity_constraints(&self.constraints)?;
+            match body.motion.filter(|m| m.pose != m.previous) {
+                None => state.apply_velocity_constraints(&self.constraints)?,
+                Some(motion) => {
+                    let positions = state.positions();
+                    self.surface_velocities.clear();
+                    self.surface_velocities.extend(
+                        self.constraints
+                            .iter()
+                            .map(|c| motion.velocity_at(&positions[c.node as usize])),
+                    );
+                    state.apply_velocity_constraints_on_surfaces(
+                        &self.constraints,
+                        &self.surface_velocities,
+                    )?;
+                }
+            }
         }
         Ok(BodyReport {
             contacts,
@@ -410,7 +468,7 @@ fn push_body_nodes(out: &mut Vec<BodyNode>, state: &StrandState, n: u32, from: u
 /// straight into a surface swings out of it instead of being re-aimed along itself; where no
 /// place on that sphere is high enough, turned out ([`turn_out`]) by `method`.
 fn body_target(
-    body: &MeshBody,
+    body: &Surface<'_>,
     method: CollisionMethod,
     p: Point,
     parent: Option<&Point>,
@@ -447,7 +505,7 @@ fn body_target(
 /// A node that swung up into the underside of a part finds its nearest surface on the top, out
 /// of reach of its segment; this sends it back out the side it came in by.
 fn turn_out(
-    body: &MeshBody,
+    body: &Surface<'_>,
     method: CollisionMethod,
     a: Point,
     u0: Vector,
@@ -471,7 +529,7 @@ fn turn_out(
 /// the exact distance; failing that, the one whose point is least deep, if it is less deep than
 /// the node (`depth`) now. `None` when no direction improves on where the node is.
 fn escape(
-    body: &MeshBody,
+    body: &Surface<'_>,
     a: Point,
     u0: Vector,
     len: Real,
@@ -537,4 +595,64 @@ struct BodyNode {
     prev: u32,
     skeleton: u32,
     radius: Real,
+}
+
+/// Where a rigid body part is over one step, in the hair's (head) frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PartMotion {
+    /// Head from part at the end of the step: where the part is when the hair is tested.
+    pub pose: Isometry3<Real>,
+    /// Head from part at the start of the step (the surface's velocity is the change).
+    pub previous: Isometry3<Real>,
+    /// The step (s).
+    pub dt: Real,
+}
+
+impl PartMotion {
+    /// The velocity (head frame) of the part's material point that is at `p` at the end of the
+    /// step: where it is less where it was, over the step.
+    pub fn velocity_at(&self, p: &Point) -> Vector {
+        let local = self.pose.inverse_transform_point(p);
+        (p - self.previous * local) / self.dt
+    }
+}
+
+/// A body as the constraint queries it: a mesh in the hair's frame, or a part's mesh in its own
+/// frame posed in the hair's (positions in, normals out transformed).
+struct Surface<'a> {
+    body: &'a MeshBody,
+    motion: Option<&'a PartMotion>,
+}
+
+impl Surface<'_> {
+    /// [`MeshBody::distance_within`] at `p` (hair frame), the normal in the hair frame.
+    #[inline]
+    fn distance_within(
+        &self,
+        method: CollisionMethod,
+        p: &Point,
+        reach: Real,
+    ) -> Option<(Real, Vector)> {
+        match self.motion {
+            None => self.body.distance_within(method, p, reach),
+            Some(m) => {
+                let local = m.pose.inverse_transform_point(p);
+                let hit = self.body.distance_within(method, &local, reach);
+                hit.map(|(d, n)| (d, m.pose.rotation * n))
+            }
+        }
+    }
+
+    /// [`MeshBody::distance`] at `p` (hair frame), the normal in the hair frame.
+    #[inline]
+    fn distance(&self, method: CollisionMethod, p: &Point) -> Option<(Real, Vector)> {
+        match self.motion {
+            None => self.body.distance(method, p),
+            Some(m) => {
+                let local = m.pose.inverse_transform_point(p);
+                let hit = self.body.distance(method, &local);
+                hit.map(|(d, n)| (d, m.pose.rotation * n))
+            }
+        }
+    }
 }

@@ -55,7 +55,7 @@ mod pairs;
 mod settings;
 mod volume;
 
-pub use body::{BodyConstraint, BodyReport};
+pub use body::{BodyConstraint, BodyReport, PartMotion};
 pub use error::CollideError;
 pub use hair_hair::{HairHairReport, HairHairStage};
 pub use localization::Localization;

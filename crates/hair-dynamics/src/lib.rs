@@ -51,6 +51,7 @@ mod polyline;
 pub mod reference;
 mod response;
 mod run;
+mod sag_free;
 mod salon_ops;
 mod state;
 mod strand;

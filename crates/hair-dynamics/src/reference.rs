@@ -1,7 +1,7 @@
 //! f64 references: one strand simulated in double precision with the same kernel, and the
 //! cantilever elastica under self-weight solved by shooting.
 
-use crate::integrate::{StepSettings, step_strand};
+use crate::integrate::{Previous, StepSettings, step_strand};
 use crate::strand::{self, RootDyn, Scratch, StrandParams};
 use crate::{Environment, SkeletonId, StrandState};
 use nalgebra::Vector3;
@@ -24,6 +24,15 @@ pub struct ReferenceStrand {
     damping: Vec<f64>,
     rest_points: Vec<Vector3<f64>>,
     external: Vec<Vector3<f64>>,
+    /// BDF2's previous step: angles, velocities, root position and velocity, and the step it was
+    /// taken with (`None`: no previous BDF2 step).
+    prev_q: Vec<f64>,
+    prev_w: Vec<f64>,
+    prev_root: (Vector3<f64>, Vector3<f64>),
+    history_dt: Option<f32>,
+    /// The coordinates at the start of the step being taken (they become `prev_*`).
+    start_q: Vec<f64>,
+    start_w: Vec<f64>,
 }
 
 fn up(v: &[f32]) -> Vec<f64> {
@@ -69,6 +78,12 @@ impl ReferenceStrand {
                 .map(|v| v.cast())
                 .collect(),
             external: state.external_force[r].iter().map(|f| f.cast()).collect(),
+            prev_q: Vec::new(),
+            prev_w: Vec::new(),
+            prev_root: (Vector3::zeros(), Vector3::zeros()),
+            history_dt: None,
+            start_q: Vec::new(),
+            start_w: Vec::new(),
         }
     }
 
@@ -91,7 +106,18 @@ impl ReferenceStrand {
             rest_points: &self.rest_points,
             external: &self.external,
         };
-        step_strand(
+        let bdf2 = settings.integrator == crate::Integrator::ImplicitBdf2;
+        // BDF2 reads the previous step if it was a BDF2 step of the same size.
+        let previous = (bdf2 && self.history_dt == Some(settings.dt)).then(|| Previous {
+            q: &self.prev_q,
+            w: &self.prev_w,
+            root_position: self.prev_root.0,
+            root_velocity: self.prev_root.1,
+        });
+        self.start_q.clone_from(&self.q);
+        self.start_w.clone_from(&self.w);
+        let start_root = (self.root.position, self.root.velocity);
+        let ok = step_strand(
             &mut self.root,
             &mut self.q,
             &mut self.w,
@@ -101,9 +127,19 @@ impl ReferenceStrand {
             &p,
             &local,
             settings,
+            previous.as_ref(),
             &mut scratch.0,
         )
-        .is_none()
+        .is_none();
+        if !bdf2 {
+            self.history_dt = None;
+        } else if ok {
+            std::mem::swap(&mut self.prev_q, &mut self.start_q);
+            std::mem::swap(&mut self.prev_w, &mut self.start_w);
+            self.prev_root = start_root;
+            self.history_dt = Some(settings.dt);
+        }
+        ok
     }
 
     /// Relaxes the strand to static equilibrium by pseudo-transient continuation: coupled implicit
@@ -169,6 +205,14 @@ impl ReferenceStrand {
 /// Reusable scratch memory of [`ReferenceStrand::step`].
 #[derive(Default)]
 pub struct ReferenceScratch(Scratch<f64>);
+
+impl ReferenceScratch {
+    /// [`crate::Integrator::ImplicitBdf2`] steps taken with this scratch whose error estimate
+    /// failed, so that they were redone as the coupled step (backward Euler).
+    pub fn bdf2_fallbacks(&self) -> usize {
+        self.0.bdf2_fallbacks
+    }
+}
 
 /// Tip of a cantilever under its own weight (inextensible elastica), clamped horizontally.
 ///

@@ -154,6 +154,7 @@ fn constrain_and_refresh(
     r: Range<usize>,
     group: &[u32],
     constraints: &[VelocityConstraint],
+    surface: Option<&[Vector]>,
 ) {
     let lo = r.start;
     let base = run.node_base;
@@ -165,10 +166,22 @@ fn constrain_and_refresh(
         let root = &mut run.roots[s - run.first];
         if root.free {
             let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
-            let v = root.velocity;
-            let vn = v.dot(&n);
-            if vn < 0.0 {
-                root.velocity = (v - n * vn) * (1.0 - c.friction.min(1.0));
+            match surface {
+                None => {
+                    let v = root.velocity;
+                    let vn = v.dot(&n);
+                    if vn < 0.0 {
+                        root.velocity = (v - n * vn) * (1.0 - c.friction.min(1.0));
+                    }
+                }
+                Some(surface) => {
+                    let at = surface[group[next] as usize];
+                    if let Some((normal, friction)) =
+                        surface_change(&(root.velocity - at), &n, c.friction)
+                    {
+                        root.velocity += normal + friction;
+                    }
+                }
             }
         }
         next += 1;
@@ -190,15 +203,28 @@ fn constrain_and_refresh(
         let ax = rot * bend.axis_x;
         let ay = rot * bend.axis_y;
         let here = run.positions[i];
+        let segment = here - before;
+        let joint = JointAxes {
+            x: &ax,
+            y: &ay,
+            segment: &segment,
+        };
         while next < group.len() && node_of(group[next]) == i {
-            constrain_joint(
-                run,
-                i,
-                &(here - before),
-                &ax,
-                &ay,
-                &constraints[group[next] as usize],
-            );
+            let k = group[next] as usize;
+            match surface {
+                None => constrain_joint(run, i, &segment, &ax, &ay, &constraints[k]),
+                Some(surface) => {
+                    // The node's velocity from its parent's motion, its own joint aside.
+                    let carried = velocity + omega.cross(&segment);
+                    let contact = SurfaceContact {
+                        constraint: &constraints[k],
+                        surface: &surface[k],
+                        carried: &carried,
+                        end: r.end,
+                    };
+                    constrain_joint_on_surface(run, i, &joint, &contact);
+                }
+            }
             next += 1;
         }
         rot *= bend.rotation;
@@ -239,6 +265,119 @@ fn constrain_joint(
         };
         run.omega_theta[i] = px * keep;
         run.omega_phi[i] = py * keep;
+    }
+}
+
+/// A joint's two axes (world) and the segment it turns (from its parent node to its node).
+struct JointAxes<'a> {
+    x: &'a Vector,
+    y: &'a Vector,
+    segment: &'a Vector,
+}
+
+/// Tikhonov weight of the rate change [`JointAxes::fit_rates`] fits, as a share of the trace
+/// of the joint's normal matrix. It bounds the change of the joint's rates to about
+/// 3.5 |change| / |segment| where the joint can hardly move its node the way asked (an axis
+/// along the segment), and costs about 2 % of the change where it moves it freely.
+const SURFACE_FIT_WEIGHT: Real = 0.01;
+
+/// The change of a node's velocity that a contact with a surface moving at the velocity that
+/// leaves `relative` (the node's velocity less the surface's) asks for, as its part along the
+/// unit normal `n` (the approach removed) and its part along the surface (the sliding slowed by
+/// Coulomb friction: the coefficient times the approach removed, at most to rest on the
+/// surface). `None` when the node is not approaching.
+#[inline]
+fn surface_change(relative: &Vector, n: &Vector, friction: Real) -> Option<(Vector, Vector)> {
+    let approach = relative.dot(n);
+    if approach >= 0.0 || n.norm_squared() == 0.0 {
+        return None;
+    }
+    let slide = relative - n * approach;
+    let speed = slide.norm();
+    let stop = if speed > 0.0 {
+        (friction.min(1.0) * -approach / speed).min(1.0)
+    } else {
+        0.0
+    };
+    Some((-(n * approach), -(slide * stop)))
+}
+
+/// A contact of a node with a moving surface, as [`constrain_joint_on_surface`] takes it.
+struct SurfaceContact<'a> {
+    constraint: &'a VelocityConstraint,
+    /// The surface's velocity where the node is.
+    surface: &'a Vector,
+    /// The node's velocity from its parent's motion, its own joint aside.
+    carried: &'a Vector,
+    /// One past the skeleton's last node (run-local).
+    end: usize,
+}
+
+/// [`constrain_joint`] against a moving surface: node `i` loses its approach to the surface and
+/// friction slows its sliding relative to the surface ([`surface_change`]), through its own
+/// joint's rates (the friction by [`JointAxes::fit_rates`]); the nodes beyond follow rigidly,
+/// as they do from `constrain_joint`.
+///
+/// The friction's change is scaled by the node's share of the joint's moment of inertia about
+/// its parent (nodes weighted by their segments' lengths): friction is an impulse on the node,
+/// and turning the joint turns everything beyond it. Given in full, a node near the root
+/// dragged by a sliding part swung the whole strand with it, its tip ten segments out ten times
+/// as fast as the surface, and friction at the nodes beyond, slowing only what slides, could
+/// not stop it (measured: tips carried 11.5 cm by a box that moved 10 cm). So scaled, no node
+/// beyond gets a larger change than the node itself. The approach is removed in full, as
+/// `constrain_joint` removes it.
+fn constrain_joint_on_surface(
+    run: &mut Run<'_>,
+    i: usize,
+    joint: &JointAxes<'_>,
+    contact: &SurfaceContact<'_>,
+) {
+    let c = contact.constraint;
+    let n = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
+    let (wx, wy) = (run.omega_theta[i], run.omega_phi[i]);
+    let (c1, c2) = (joint.x.cross(joint.segment), joint.y.cross(joint.segment));
+    let relative = contact.carried + c1 * wx + c2 * wy - contact.surface;
+    let Some((normal, friction)) = surface_change(&relative, &n, c.friction) else {
+        return;
+    };
+    // The approach: the smallest rate change that moves the node along the normal by it, as
+    // `constrain_joint` removes it (regularised like the fit).
+    let (gx, gy) = (n.dot(&c1), n.dot(&c2));
+    let lambda = SURFACE_FIT_WEIGHT * (c1.norm_squared() + c2.norm_squared());
+    let lift = normal.norm() / (gx * gx + gy * gy + lambda);
+    let (nx, ny) = if lift.is_finite() {
+        (gx * lift, gy * lift)
+    } else {
+        (0.0, 0.0)
+    };
+    let pivot = run.positions[i - 1];
+    let reach = |j: usize| run.length[j] * (run.positions[j] - pivot).norm_squared();
+    let inertia: Real = (i..contact.end).map(reach).sum();
+    let share = if inertia > 0.0 {
+        reach(i) / inertia
+    } else {
+        0.0
+    };
+    let (fx, fy) = joint.fit_rates(&(friction * share));
+    run.omega_theta[i] = wx + nx + fx;
+    run.omega_phi[i] = wy + ny + fy;
+}
+
+impl JointAxes<'_> {
+    /// The change of the joint's two rates that best changes its node's velocity by `change`:
+    /// least squares regularised by [`SURFACE_FIT_WEIGHT`]; none for a segment of no length.
+    #[inline]
+    fn fit_rates(&self, change: &Vector) -> (Real, Real) {
+        let (c1, c2) = (self.x.cross(self.segment), self.y.cross(self.segment));
+        let (a11, a12, a22) = (c1.dot(&c1), c1.dot(&c2), c2.dot(&c2));
+        let lambda = SURFACE_FIT_WEIGHT * (a11 + a22);
+        if lambda <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let (a11, a22) = (a11 + lambda, a22 + lambda);
+        let (b1, b2) = (c1.dot(change), c2.dot(change));
+        let det = a11 * a22 - a12 * a12;
+        ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det)
     }
 }
 
@@ -383,6 +522,41 @@ impl StrandState {
         &mut self,
         constraints: &[VelocityConstraint],
     ) -> Result<(), DynamicsError> {
+        self.constrain_velocities(constraints, None)
+    }
+
+    /// [`StrandState::apply_velocity_constraints`] against moving surfaces: `surface[k]` is the
+    /// velocity (head frame) of the surface of `constraints[k]` where its node is. A node
+    /// approaching its surface loses the approach relative to it, and friction slows its
+    /// sliding relative to it, so a surface moving along itself drags the nodes resting on it
+    /// and one moving out pushes them. Each constrained node's own joint takes the change (the
+    /// rate change that best gives it, regularised so that a joint that can hardly move its
+    /// node the way asked is not asked for large rates); the nodes beyond follow rigidly, and
+    /// node velocities are then recomputed from the rates. A `surface` of another length than
+    /// `constraints` is an error, as is a non-finite velocity; either way nothing changes.
+    pub fn apply_velocity_constraints_on_surfaces(
+        &mut self,
+        constraints: &[VelocityConstraint],
+        surface: &[Vector],
+    ) -> Result<(), DynamicsError> {
+        if surface.len() != constraints.len() {
+            return Err(DynamicsError::OutOfRange {
+                name: "surface velocities (count)",
+                value: surface.len() as f64,
+                expected: "one per velocity constraint",
+            });
+        }
+        for v in surface {
+            crate::error::finite_vec("surface velocity", v)?;
+        }
+        self.constrain_velocities(constraints, Some(surface))
+    }
+
+    fn constrain_velocities(
+        &mut self,
+        constraints: &[VelocityConstraint],
+        surface: Option<&[Vector]>,
+    ) -> Result<(), DynamicsError> {
         let count = self.theta.len();
         for c in constraints {
             if c.node as usize >= count {
@@ -439,7 +613,7 @@ impl StrandState {
             let s = touched_ref[k] as usize;
             let r = run.local_nodes(s, offsets, counts);
             let group = &order_ref[groups_ref[k] as usize..groups_ref[k + 1] as usize];
-            constrain_and_refresh(run, s, r, group, constraints);
+            constrain_and_refresh(run, s, r, group, constraints, surface);
         });
         self.order_scratch = order;
         self.group_scratch = groups;

@@ -16,6 +16,10 @@ pub(crate) struct Run<'a> {
     pub(crate) phi: &'a mut [Real],
     pub(crate) omega_theta: &'a mut [Real],
     pub(crate) omega_phi: &'a mut [Real],
+    pub(crate) prev_theta: &'a mut [Real],
+    pub(crate) prev_phi: &'a mut [Real],
+    pub(crate) prev_omega_theta: &'a mut [Real],
+    pub(crate) prev_omega_phi: &'a mut [Real],
     pub(crate) length: &'a mut [Real],
     pub(crate) positions: &'a mut [Point],
     pub(crate) velocities: &'a mut [Vector],
@@ -29,6 +33,10 @@ impl<'a> Run<'a> {
         let (p0, p1) = self.phi.split_at_mut(k);
         let (a0, a1) = self.omega_theta.split_at_mut(k);
         let (b0, b1) = self.omega_phi.split_at_mut(k);
+        let (pt0, pt1) = self.prev_theta.split_at_mut(k);
+        let (pp0, pp1) = self.prev_phi.split_at_mut(k);
+        let (pa0, pa1) = self.prev_omega_theta.split_at_mut(k);
+        let (pb0, pb1) = self.prev_omega_phi.split_at_mut(k);
         let (l0, l1) = self.length.split_at_mut(k);
         let (x0, x1) = self.positions.split_at_mut(k);
         let (v0, v1) = self.velocities.split_at_mut(k);
@@ -41,6 +49,10 @@ impl<'a> Run<'a> {
                 phi: p0,
                 omega_theta: a0,
                 omega_phi: b0,
+                prev_theta: pt0,
+                prev_phi: pp0,
+                prev_omega_theta: pa0,
+                prev_omega_phi: pb0,
                 length: l0,
                 positions: x0,
                 velocities: v0,
@@ -53,6 +65,10 @@ impl<'a> Run<'a> {
                 phi: p1,
                 omega_theta: a1,
                 omega_phi: b1,
+                prev_theta: pt1,
+                prev_phi: pp1,
+                prev_omega_theta: pa1,
+                prev_omega_phi: pb1,
                 length: l1,
                 positions: x1,
                 velocities: v1,
@@ -73,6 +89,10 @@ macro_rules! whole_run {
             phi: &mut $state.phi,
             omega_theta: &mut $state.omega_theta,
             omega_phi: &mut $state.omega_phi,
+            prev_theta: &mut $state.prev_theta,
+            prev_phi: &mut $state.prev_phi,
+            prev_omega_theta: &mut $state.prev_omega_theta,
+            prev_omega_phi: &mut $state.prev_omega_phi,
             length: &mut $state.length,
             positions: &mut $state.positions,
             velocities: &mut $state.velocities,

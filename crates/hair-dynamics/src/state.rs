@@ -106,6 +106,13 @@ pub(crate) struct RootState {
     pub rotation: Matrix3<Real>,
     pub velocity: Vector,
     pub free: bool,
+    /// BDF2's history: 0, or the tag (`integrate::history_tag`) of the coordinates the last
+    /// [`crate::Integrator::ImplicitBdf2`] step left; the step uses the `prev_*` fields only if
+    /// the strand still has those coordinates (nothing rewrote them since) and the same time step.
+    pub history: u64,
+    /// A free root's position and velocity one step back (BDF2).
+    pub prev_position: Point,
+    pub prev_velocity: Vector,
 }
 
 /// Every control point of every skeleton, one `Vec` per field.
@@ -126,6 +133,12 @@ pub struct StrandState {
     pub(crate) phi: Vec<Real>,
     pub(crate) omega_theta: Vec<Real>,
     pub(crate) omega_phi: Vec<Real>,
+    /// The angles and rates one step back, kept by [`crate::Integrator::ImplicitBdf2`] (valid
+    /// where the skeleton's root carries a history tag).
+    pub(crate) prev_theta: Vec<Real>,
+    pub(crate) prev_phi: Vec<Real>,
+    pub(crate) prev_omega_theta: Vec<Real>,
+    pub(crate) prev_omega_phi: Vec<Real>,
     pub(crate) rest_theta: Vec<Real>,
     pub(crate) rest_phi: Vec<Real>,
     pub(crate) rest_length: Vec<Real>,
@@ -179,6 +192,10 @@ impl Clone for StrandState {
             phi,
             omega_theta,
             omega_phi,
+            prev_theta,
+            prev_phi,
+            prev_omega_theta,
+            prev_omega_phi,
             rest_theta,
             rest_phi,
             rest_length,
@@ -214,6 +231,10 @@ impl Clone for StrandState {
         phi.clone_from(&from.phi);
         omega_theta.clone_from(&from.omega_theta);
         omega_phi.clone_from(&from.omega_phi);
+        prev_theta.clone_from(&from.prev_theta);
+        prev_phi.clone_from(&from.prev_phi);
+        prev_omega_theta.clone_from(&from.prev_omega_theta);
+        prev_omega_phi.clone_from(&from.prev_omega_phi);
         rest_theta.clone_from(&from.rest_theta);
         rest_phi.clone_from(&from.rest_phi);
         rest_length.clone_from(&from.rest_length);
@@ -344,6 +365,10 @@ impl StrandState {
             self.phi.push(phi[i]);
             self.omega_theta.push(0.0);
             self.omega_phi.push(0.0);
+            self.prev_theta.push(theta[i]);
+            self.prev_phi.push(phi[i]);
+            self.prev_omega_theta.push(0.0);
+            self.prev_omega_phi.push(0.0);
             self.rest_theta.push(theta[i]);
             self.rest_phi.push(phi[i]);
             self.rest_length.push(lengths[i]);
@@ -375,6 +400,9 @@ impl StrandState {
             rotation: *frame.matrix(),
             velocity,
             free,
+            history: 0,
+            prev_position: root_pos,
+            prev_velocity: velocity,
         });
         self.active.push(true);
         self.refresh_positions(SkeletonId(skeleton as u32));

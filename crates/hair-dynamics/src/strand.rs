@@ -81,6 +81,8 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub frame_zw: Vec<T>,
     /// Structured solves that failed their residual check and were redone densely.
     pub dense_fallbacks: usize,
+    /// BDF2 steps whose error estimate failed and that were redone as the coupled step.
+    pub bdf2_fallbacks: usize,
     // Integrator stages.
     pub q0: Vec<T>,
     pub w0: Vec<T>,

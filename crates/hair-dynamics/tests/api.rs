@@ -227,6 +227,101 @@ fn velocity_constraints_remove_the_approach_and_apply_friction() {
 }
 
 #[test]
+fn surface_constraints_act_on_the_velocity_relative_to_the_moving_surface() {
+    let (mut state, id) = one_strand(
+        Style::Straight,
+        6,
+        0.1,
+        frame_along(Vector::x()),
+        Material::default(),
+    );
+    for _ in 0..10 {
+        state
+            .step(
+                &Environment::default(),
+                &settings(1.0 / 120.0, Integrator::ImplicitCoupled, TorqueModel::Chain),
+            )
+            .unwrap();
+    }
+    // Next to the clamped root, along x: its own joint moves the node along y and z freely.
+    let node = state.nodes(id).start + 1;
+    let falling = state.velocities()[node];
+    assert!(falling.y < -0.01, "the node falls at {falling:?}");
+    let floor = |friction| VelocityConstraint {
+        node: node as u32,
+        normal: Vector::y(),
+        friction,
+    };
+    let apply = |surface: Vector, friction: Real| {
+        let mut s = state.clone();
+        s.apply_velocity_constraints_on_surfaces(&[floor(friction)], &[surface])
+            .unwrap();
+        s.velocities()[node]
+    };
+    // A floor dropping away faster than the node falls leaves it alone.
+    let after = apply(Vector::new(0.0, 2.0 * falling.y, 0.0), 1.0);
+    assert_eq!(after, falling);
+    // A floor rising at 0.3 m/s lifts it at the floor's speed (within the fit's 2 %), no more.
+    let after = apply(Vector::new(0.0, 0.3, 0.0), 0.0);
+    assert!(
+        after.y > 0.3 * 0.97 && after.y < 0.3 + 1e-4,
+        "lifted at {}",
+        after.y
+    );
+    assert!(
+        (after.z - falling.z).abs() < 1e-3,
+        "no friction, yet z went {}",
+        after.z
+    );
+    // A floor sliding along z drags it by friction toward its speed, never past it; without
+    // friction it does not drag it at all. Next to the root the drag turns the whole strand,
+    // so the node takes its share of the strand's moment of inertia (1/55 of the segments'
+    // squared reach); the tip takes all of it.
+    let slide = Vector::new(0.0, 0.0, 0.5);
+    let dragged = apply(slide, 1.0);
+    assert!(
+        dragged.z > falling.z + 1e-4 && dragged.z <= 0.5,
+        "dragged to {}",
+        dragged.z
+    );
+    let slipped = apply(slide, 0.0);
+    assert!(
+        (slipped.z - falling.z).abs() < 1e-3,
+        "slipped to {}",
+        slipped.z
+    );
+    let tip = state.nodes(id).end - 1;
+    let mut s = state.clone();
+    let at_tip = VelocityConstraint {
+        node: tip as u32,
+        ..floor(1.0)
+    };
+    s.apply_velocity_constraints_on_surfaces(&[at_tip], &[slide])
+        .unwrap();
+    let (from, to) = (state.velocities()[tip].z, s.velocities()[tip].z);
+    assert!(
+        to > from + 10.0 * (dragged.z - falling.z) && to <= 0.5,
+        "tip dragged from {from} to {to}"
+    );
+    // One surface velocity per constraint, finite: otherwise an error and nothing changes.
+    let before = state.state_hash();
+    assert!(
+        state
+            .apply_velocity_constraints_on_surfaces(&[floor(0.5)], &[])
+            .is_err()
+    );
+    assert!(
+        state
+            .apply_velocity_constraints_on_surfaces(
+                &[floor(0.5)],
+                &[Vector::new(Real::NAN, 0.0, 0.0)]
+            )
+            .is_err()
+    );
+    assert_eq!(state.state_hash(), before);
+}
+
+#[test]
 fn bonds_pull_and_break_at_their_distance() {
     let down = -Vector::y();
     let mut state = strands(

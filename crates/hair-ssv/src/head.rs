@@ -196,6 +196,89 @@ pub fn head_and_shoulders(resolution: usize) -> (Vec<Point>, Vec<[u32; 3]>) {
     (v, tris)
 }
 
+/// The head, neck and shoulders of [`head_and_shoulders`] as three closed meshes (vertices,
+/// outward triangles), for bodies whose parts move apart: the whole bumpy head ellipsoid, the
+/// neck cylinder capped inside the head and the shoulders (from the shoulders' centre to the
+/// head's), and the whole shoulder ellipsoid. They overlap where the one mesh joins them, and
+/// together they cover what it covers, up to the tessellation (the same azimuths).
+pub fn head_neck_torso(resolution: usize) -> [(Vec<Point>, Vec<[u32; 3]>); 3] {
+    let res = resolution.max(8);
+    let n_theta = 2 * res;
+    let head = closed_ellipsoid(HEAD, head_bump, n_theta, 2 * res);
+    let torso = closed_ellipsoid(SHOULDERS, |_, _| 1.0, n_theta, (2 * res / 3).max(4));
+    // The neck: a capped tube on the neck cylinder.
+    let (rings, nt) = (12, n_theta as u32);
+    let (y0, y1) = (SHOULDERS.0[1], HEAD.0[1]);
+    let mut v = vec![Point::new(0.0, y0, 0.0)];
+    for k in 0..rings {
+        let y = y0 + (y1 - y0) * k as Real / (rings - 1) as Real;
+        v.extend((0..nt).map(|i| {
+            let theta = TAU * i as Real / n_theta as Real;
+            Point::new(NECK_RADIUS * theta.cos(), y, NECK_RADIUS * theta.sin())
+        }));
+    }
+    v.push(Point::new(0.0, y1, 0.0));
+    let mut tris = Vec::new();
+    let top = v.len() as u32 - 1;
+    let ring = |k: u32, i: u32| 1 + k * nt + i % nt;
+    let axis = |y: Real| Point::new(0.0, y, 0.0);
+    for i in 0..nt {
+        push_tri(
+            &mut tris,
+            &v,
+            [0, ring(0, i + 1), ring(0, i)],
+            &axis(y0 + 0.01),
+        );
+        let last = rings as u32 - 1;
+        push_tri(
+            &mut tris,
+            &v,
+            [top, ring(last, i), ring(last, i + 1)],
+            &axis(y1 - 0.01),
+        );
+    }
+    for k in 0..rings as u32 - 1 {
+        push_band(&mut tris, &v, ring(k, 0), ring(k + 1, 0), nt, axis);
+    }
+    [head, (v, tris), torso]
+}
+
+/// A closed bumpy ellipsoid: two poles and `rows - 1` rings of `n_theta` points between them.
+fn closed_ellipsoid(
+    e: ([Real; 3], [Real; 3]),
+    bump: impl Fn(Real, Real) -> Real,
+    n_theta: usize,
+    rows: usize,
+) -> (Vec<Point>, Vec<[u32; 3]>) {
+    let centre = Point::from(e.0);
+    let mut v = vec![ellipsoid_point(e, &bump, 0.0, 0.0)];
+    for k in 1..rows {
+        let phi = PI * k as Real / rows as Real;
+        v.extend((0..n_theta).map(|i| {
+            let theta = TAU * i as Real / n_theta as Real;
+            ellipsoid_point(e, &bump, theta, phi)
+        }));
+    }
+    v.push(ellipsoid_point(e, &bump, 0.0, PI));
+    let (nt, bottom) = (n_theta as u32, v.len() as u32 - 1);
+    let ring = |k: u32, i: u32| 1 + k * nt + i % nt;
+    let mut tris = Vec::new();
+    let last = rows as u32 - 2;
+    for i in 0..nt {
+        push_tri(&mut tris, &v, [0, ring(0, i), ring(0, i + 1)], &centre);
+        push_tri(
+            &mut tris,
+            &v,
+            [bottom, ring(last, i + 1), ring(last, i)],
+            &centre,
+        );
+    }
+    for k in 0..last {
+        push_band(&mut tris, &v, ring(k, 0), ring(k + 1, 0), nt, |_| centre);
+    }
+    (v, tris)
+}
+
 /// The collision tables of the head-and-shoulders body: a head cylinder, a crown sphere cap, a
 /// neck cylinder and a shoulder cylinder along `x`, each `samples` x `samples` (Kurihara used 40).
 pub fn head_and_shoulders_body(bvh: &Bvh, samples: usize) -> Result<Body, SsvError> {

@@ -151,8 +151,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )))
         .map(|(s, d)| (s.0 / d.0, s.1 / d.1));
 
+    // BDF2's cost per step over the first-order coupled step's (throughputs inverted).
+    let bdf2_cost = rate(Integrator::ImplicitCoupled.name())
+        .zip(rate(Integrator::ImplicitBdf2.name()))
+        .map(|(c, b)| (c.0 / b.0, c.1 / b.1));
+
     if args.json {
         let mut obj = Map::new();
+        if let Some((r1, rn)) = bdf2_cost {
+            obj.insert("implicit_bdf2_cost_over_implicit_coupled".into(), json!(r1));
+            obj.insert(
+                "implicit_bdf2_cost_over_implicit_coupled_all_threads".into(),
+                json!(rn),
+            );
+        }
         for (i, t) in &results {
             obj.insert(
                 i.clone(),

@@ -1,4 +1,4 @@
-//! Time integration: seven integrators behind one interface, run in parallel over skeletons.
+//! Time integration: eight integrators behind one interface, run in parallel over skeletons.
 //!
 //! | integrator | method | where it fails |
 //! |---|---|---|
@@ -9,7 +9,9 @@
 //! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one `O(n)` structured solve per strand | none found in the stability sweep |
 //! | [`Integrator::ImplicitRos2`] | two-stage L-stable Rosenbrock (second order) on the same system, two solves of the coupled step's kind | see `hair stability` |
 //! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves | see `hair stability` |
+//! | [`Integrator::ImplicitBdf2`] | linearly implicit BDF2 (second order, L-stable) on the coupled system, one solve of the coupled step's kind, the previous step kept in the state | none found in the stability sweep |
 
+mod bdf2;
 mod implicit_coupled;
 mod lanes;
 mod rosenbrock;
@@ -22,6 +24,7 @@ use crate::{DynamicsError, Environment, Point, Real, StrandState, Vector};
 use nalgebra::{RealField, Vector3};
 use std::cell::RefCell;
 
+pub(crate) use bdf2::Previous;
 pub use implicit_coupled::LinearSolver;
 
 /// Which integrator advances the angles.
@@ -46,11 +49,17 @@ pub enum Integrator {
     /// Sandu et al.'s three-stage Rosenbrock method ROS3 on the coupled system: third order,
     /// L-stable, two torque evaluations and three solves per step (`docs/dynamics.md`).
     ImplicitRos3,
+    /// The two-step backward differentiation formula BDF2 on the coupled system, linearised once
+    /// per step: second order, L-stable, one solve of the coupled step's system per step. It
+    /// reads the strand's previous step, kept in the state; the first step, and any step after
+    /// the strand's angles, velocities or the time step were changed from outside, is the coupled
+    /// step (backward Euler) (`docs/dynamics.md`).
+    ImplicitBdf2,
 }
 
 impl Integrator {
     /// Every integrator, in chart order.
-    pub const ALL: [Integrator; 7] = [
+    pub const ALL: [Integrator; 8] = [
         Integrator::ExplicitEuler,
         Integrator::SymplecticEuler,
         Integrator::Rk4,
@@ -58,6 +67,7 @@ impl Integrator {
         Integrator::ImplicitCoupled,
         Integrator::ImplicitRos2,
         Integrator::ImplicitRos3,
+        Integrator::ImplicitBdf2,
     ];
 
     /// A short stable name (`explicit_euler`, ...), used in JSON and on charts.
@@ -70,6 +80,7 @@ impl Integrator {
             Integrator::ImplicitCoupled => "implicit_coupled",
             Integrator::ImplicitRos2 => "implicit_ros2",
             Integrator::ImplicitRos3 => "implicit_ros3",
+            Integrator::ImplicitBdf2 => "implicit_bdf2",
         }
     }
 
@@ -78,7 +89,7 @@ impl Integrator {
         match self {
             Integrator::Rk4 => 4,
             Integrator::ImplicitRos3 => 3,
-            Integrator::ImplicitRos2 => 2,
+            Integrator::ImplicitRos2 | Integrator::ImplicitBdf2 => 2,
             _ => 1,
         }
     }
@@ -143,7 +154,8 @@ pub struct StepReport {
 }
 
 /// Advances one strand by one step in the scalar type `T`. Returns the first non-finite node, if
-/// any, after restoring the strand's coordinates.
+/// any, after restoring the strand's coordinates. `previous` is the strand one step back, read by
+/// [`Integrator::ImplicitBdf2`] only (`None`: its first step, backward Euler).
 #[expect(
     clippy::too_many_arguments,
     reason = "the kernel's inputs are all distinct slices"
@@ -158,6 +170,7 @@ pub(crate) fn step_strand<T: RealField + Copy>(
     p: &StrandParams<'_, T>,
     env: &LocalEnv<'_, T>,
     settings: &StepSettings,
+    previous: Option<&Previous<'_, T>>,
     sc: &mut Scratch<T>,
 ) -> Option<usize> {
     let n = length.len();
@@ -165,7 +178,10 @@ pub(crate) fn step_strand<T: RealField + Copy>(
     let h = T::from_f32(settings.dt).unwrap_or_else(T::zero);
     let coupled = matches!(
         settings.integrator,
-        Integrator::ImplicitCoupled | Integrator::ImplicitRos2 | Integrator::ImplicitRos3
+        Integrator::ImplicitCoupled
+            | Integrator::ImplicitRos2
+            | Integrator::ImplicitRos3
+            | Integrator::ImplicitBdf2
     );
     sc.reserve(n, coupled);
     sc.q0[..m2].copy_from_slice(q);
@@ -216,14 +232,23 @@ pub(crate) fn step_strand<T: RealField + Copy>(
             }
             symplectic_root(root, sc.root_acc, h);
         }
-        Integrator::ImplicitCoupled => {
+        Integrator::ImplicitCoupled | Integrator::ImplicitBdf2 => {
             eval(root, q, w, length, true, sc);
             // A turning head's Coriolis and centrifugal forces are implicit too: held explicit,
             // the gyroscopic term gains energy every step (see `rotating_frame`).
             let spin =
                 (env.has_frame_motion && env.omega.norm_squared() > T::zero()).then_some(env.omega);
-            implicit_coupled::solve_step(root, p, q, w, h, settings, spin, sc);
-            symplectic_root(root, sc.root_acc, h);
+            match previous.filter(|_| settings.integrator == Integrator::ImplicitBdf2) {
+                Some(previous) => {
+                    if bdf2::solve_step(root, p, q, w, length, previous, h, settings, spin, sc) {
+                        sc.bdf2_fallbacks += 1;
+                    }
+                }
+                None => {
+                    implicit_coupled::solve_step(root, p, q, w, h, settings, spin, sc);
+                    symplectic_root(root, sc.root_acc, h);
+                }
+            }
         }
         Integrator::ImplicitRos2 => {
             rosenbrock::advance(
@@ -387,8 +412,20 @@ fn rk4<T: RealField + Copy, F>(
     sc.acc_w = acc_w;
 }
 
+/// A worker's reusable buffers (see `SCRATCH`).
+#[derive(Default)]
+struct WorkerBuffers {
+    sc: Scratch<Real>,
+    q: Vec<Real>,
+    w: Vec<Real>,
+    prev_q: Vec<Real>,
+    prev_w: Vec<Real>,
+}
+
 thread_local! {
-    static SCRATCH: RefCell<(Scratch<Real>, Vec<Real>, Vec<Real>)> = RefCell::new(Default::default());
+    /// Per worker: the strand's scratch, its coordinates in the step's layout (`q`, `w`), and
+    /// BDF2's previous step in the same layout.
+    static SCRATCH: RefCell<WorkerBuffers> = RefCell::new(Default::default());
 }
 
 /// Read-only inputs shared by every worker.
@@ -433,23 +470,23 @@ fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
 fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
     SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
-        let (sc, q, w) = &mut *guard;
+        let buffers = &mut *guard;
         let mut first_bad = None;
-        let fallbacks_before = sc.dense_fallbacks;
+        let fallbacks_before = buffers.sc.dense_fallbacks;
         let mut scalar = |run: &mut Run<'_>, local: usize, settings: &StepSettings| {
-            if let Some(node) = step_skeleton(run, sh, local, settings, sc, q, w) {
+            if let Some(node) = step_skeleton(run, sh, local, settings, buffers) {
                 let s = run.first + local;
                 // The lanes finish out of order: keep the first skeleton, as the scalar loop does.
                 first_bad = Some(first_bad.map_or((s, node), |b: (usize, usize)| b.min((s, node))));
             }
         };
+        let mut lane_fallbacks = 0;
         if lanes::covers(sh) {
             // Strands of equal node count (attached roots) eight at a time; the rest one by one.
             let dense = StepSettings {
                 solver: LinearSolver::Hand,
                 ..sh.settings
             };
-            let mut fallbacks = 0;
             let mut group = [0usize; lanes::LANES];
             let mut members = 0;
             let mut group_n = 0;
@@ -462,7 +499,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                     let outcome = lanes::step_group(run, sh, group, n);
                     for (&local, o) in group.iter().zip(outcome) {
                         match o {
-                            lanes::LaneOutcome::Done => {}
+                            lanes::LaneOutcome::Done => run.roots[local].history = 0,
                             lanes::LaneOutcome::Declined => {
                                 *fallbacks += 1;
                                 scalar(run, local, &dense);
@@ -474,6 +511,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
             for local in 0..run.roots.len() {
                 let s = run.first + local;
                 if !sh.active[s] {
+                    run.roots[local].history = 0;
                     continue;
                 }
                 let n = sh.counts[s] as usize;
@@ -486,7 +524,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                         &mut run,
                         &group[..members],
                         group_n,
-                        &mut fallbacks,
+                        &mut lane_fallbacks,
                         &mut scalar,
                     );
                     members = 0;
@@ -499,7 +537,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                         &mut run,
                         &group[..members],
                         group_n,
-                        &mut fallbacks,
+                        &mut lane_fallbacks,
                         &mut scalar,
                     );
                     members = 0;
@@ -510,33 +548,42 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                     &mut run,
                     &group[..members],
                     group_n,
-                    &mut fallbacks,
+                    &mut lane_fallbacks,
                     &mut scalar,
                 );
             }
-            sc.dense_fallbacks += fallbacks;
         } else {
             for local in 0..run.roots.len() {
                 if sh.active[run.first + local] {
                     scalar(&mut run, local, &sh.settings);
+                } else {
+                    // A dormant strand restarts BDF2 from backward Euler when it wakes.
+                    run.roots[local].history = 0;
                 }
             }
         }
-        (first_bad, sc.dense_fallbacks - fallbacks_before)
+        buffers.sc.dense_fallbacks += lane_fallbacks;
+        (first_bad, buffers.sc.dense_fallbacks - fallbacks_before)
     })
 }
 
-/// Advances skeleton `local` of `run` by the scalar step with `settings`, writing back its new
-/// state and end-of-step positions; returns the first non-finite node (the skeleton restored).
+/// One strand by the scalar step (any integrator and solver): copied into the step's layout,
+/// advanced, and written back; returns the first non-finite node, leaving the strand as it was.
 fn step_skeleton(
     run: &mut Run<'_>,
     sh: &Shared<'_>,
     local: usize,
     settings: &StepSettings,
-    sc: &mut Scratch<Real>,
-    q: &mut Vec<Real>,
-    w: &mut Vec<Real>,
+    buffers: &mut WorkerBuffers,
 ) -> Option<usize> {
+    let WorkerBuffers {
+        sc,
+        q,
+        w,
+        prev_q,
+        prev_w,
+    } = buffers;
+    let bdf2 = settings.integrator == Integrator::ImplicitBdf2;
     let s = run.first + local;
     let o = sh.state_offsets[s] as usize;
     let n = sh.counts[s] as usize;
@@ -547,6 +594,8 @@ fn step_skeleton(
     if q.len() < m2 {
         q.resize(m2, 0.0);
         w.resize(m2, 0.0);
+        prev_q.resize(m2, 0.0);
+        prev_w.resize(m2, 0.0);
     }
     for i in 1..n {
         q[2 * i - 2] = run.theta[lo + i];
@@ -555,6 +604,24 @@ fn step_skeleton(
         w[2 * i - 1] = run.omega_phi[lo + i];
     }
     let rs = &mut run.roots[local];
+    // BDF2 reads the previous step only if the strand is as its last BDF2 step left it.
+    let has_history = bdf2
+        && rs.history != 0
+        && rs.history == bdf2::history_tag(&q[..m2], &w[..m2], rs, sh.settings.dt);
+    if has_history {
+        for i in 1..n {
+            prev_q[2 * i - 2] = run.prev_theta[lo + i];
+            prev_q[2 * i - 1] = run.prev_phi[lo + i];
+            prev_w[2 * i - 2] = run.prev_omega_theta[lo + i];
+            prev_w[2 * i - 1] = run.prev_omega_phi[lo + i];
+        }
+    }
+    let previous = has_history.then(|| Previous {
+        q: &prev_q[..m2],
+        w: &prev_w[..m2],
+        root_position: rs.prev_position.coords,
+        root_velocity: rs.prev_velocity,
+    });
     let mut root = RootDyn {
         position: rs.position.coords,
         rotation: rs.rotation,
@@ -582,10 +649,21 @@ fn step_skeleton(
         &params,
         &sh.env,
         settings,
+        previous.as_ref(),
         sc,
     );
     if bad.is_some() {
         return bad;
+    }
+    if bdf2 {
+        for i in 1..n {
+            run.prev_theta[lo + i] = run.theta[lo + i];
+            run.prev_phi[lo + i] = run.phi[lo + i];
+            run.prev_omega_theta[lo + i] = run.omega_theta[lo + i];
+            run.prev_omega_phi[lo + i] = run.omega_phi[lo + i];
+        }
+        rs.prev_position = rs.position;
+        rs.prev_velocity = rs.velocity;
     }
     for i in 1..n {
         run.theta[lo + i] = q[2 * i - 2];
@@ -595,6 +673,11 @@ fn step_skeleton(
     }
     rs.position = Point::from(root.position);
     rs.velocity = root.velocity;
+    rs.history = if bdf2 {
+        bdf2::history_tag(&q[..m2], &w[..m2], rs, sh.settings.dt)
+    } else {
+        0
+    };
     // Positions and velocities at the end of the step, for collision and rendering.
     strand::forward(&root, &q[..m2], &w[..m2], &run.length[r.clone()], sc);
     for k in 0..n {

@@ -1,0 +1,206 @@
+//! Body parts that move rigidly with poses the caller gives (a neck, a torso, an arm): each a
+//! mesh in its own frame, posed in the world each step, colliding with the hair as the body
+//! does while it moves ([`hair_collide::BodyConstraint::apply_moving`]).
+//!
+//! The hair is simulated in the head's frame, where the body given to the simulation is
+//! static. A part's world pose is carried into that frame with the head's pose at the end of
+//! the step and the teleport offset, so a part the caller holds still in the world moves in
+//! the head's frame as the head turns, and the hair meets it moving.
+
+use crate::{HairError, Simulation, StepStats};
+use hair_collide::{BodyConstraint, PartMotion};
+use hair_dynamics::{HeadPose, TeleportLimits};
+use hair_ssv::{MeshBody, Point, Real};
+use nalgebra::Isometry3;
+
+/// Which body part: its index in [`Simulation::body_parts`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PartId(pub usize);
+
+/// A rigid body part: its mesh in its own frame and where it is.
+#[derive(Clone, Debug)]
+pub struct BodyPart {
+    name: String,
+    body: MeshBody,
+    /// Track frame (world less the teleport offset) from part, as of the end of the last step.
+    track_pose: HeadPose,
+    /// The world pose the caller set for the end of the next step.
+    pending: Option<HeadPose>,
+    /// This step's motion in the head frame, once the step reached the collision stage.
+    motion: Option<PartMotion>,
+    constraint: BodyConstraint,
+}
+
+impl BodyPart {
+    /// The name the part was added with.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The part's mesh (m, its own frame).
+    pub fn body(&self) -> &MeshBody {
+        &self.body
+    }
+
+    /// The part's poses in the head's frame (the hair's) at the start and end of the last
+    /// step; `None` before the first step.
+    pub fn motion(&self) -> Option<&PartMotion> {
+        self.motion.as_ref()
+    }
+}
+
+impl Simulation {
+    /// Adds a body part that moves rigidly: a closed triangle mesh (m, the part's own frame) at
+    /// `world_from_part` now, held there (in the world) until
+    /// [`Simulation::set_body_part_pose`] moves it. Hair collides with it as with the body: no
+    /// node is left inside it beyond the scene's tolerance, and a moving part pushes the hair
+    /// and carries it by friction. A degenerate mesh (a degenerate triangle, an index out of
+    /// range, a non-finite vertex) or a non-finite pose is an error and nothing changes. Hair
+    /// the part is placed into is pushed out on the next step at once, not over the
+    /// depenetration ramp.
+    pub fn add_body_part(
+        &mut self,
+        name: &str,
+        vertices: Vec<[f32; 3]>,
+        triangles: Vec<[u32; 3]>,
+        world_from_part: Isometry3<Real>,
+    ) -> Result<PartId, HairError> {
+        check_pose(name, &world_from_part)?;
+        let vertices = vertices.into_iter().map(Point::from).collect();
+        let body = MeshBody::new(vertices, triangles).map_err(|e| HairError::BodyPart {
+            part: name.into(),
+            message: e.to_string(),
+        })?;
+        let track_pose = self.teleport.inverse() * world_from_part;
+        Ok(self.push_part(name, body, track_pose))
+    }
+
+    /// A part at `track_pose` (the head track's frame).
+    pub(crate) fn push_part(&mut self, name: &str, body: MeshBody, track_pose: HeadPose) -> PartId {
+        self.parts.push(BodyPart {
+            name: name.into(),
+            body,
+            track_pose,
+            pending: None,
+            motion: None,
+            constraint: BodyConstraint::new(),
+        });
+        PartId(self.parts.len() - 1)
+    }
+
+    /// Sets the pose (world from part) part `id` reaches at the end of the next step; a later
+    /// call before the step replaces an earlier one. It is carried into the head's frame with
+    /// the head's pose at the end of that step, whichever of the two poses is set first. The
+    /// part's surface velocity over the step (which the hair's contact with it acts on) is its
+    /// move in the head's frame; a move beyond the head's [`TeleportLimits`] is a teleport: the
+    /// part jumps there and pushes the hair out of it with no velocity, nothing whips. An
+    /// unknown id or a non-finite pose is an error and nothing changes.
+    pub fn set_body_part_pose(
+        &mut self,
+        id: PartId,
+        world_from_part: Isometry3<Real>,
+    ) -> Result<(), HairError> {
+        let count = self.parts.len();
+        let part = self
+            .parts
+            .get_mut(id.0)
+            .ok_or(HairError::UnknownBodyPart { id: id.0, count })?;
+        check_pose(&part.name, &world_from_part)?;
+        part.pending = Some(world_from_part);
+        Ok(())
+    }
+
+    /// The body parts, by [`PartId`].
+    pub fn body_parts(&self) -> &[BodyPart] {
+        &self.parts
+    }
+
+    /// Part `id`'s pose now (world from part), or an error for an unknown id.
+    pub fn body_part_pose(&self, id: PartId) -> Result<Isometry3<Real>, HairError> {
+        let count = self.parts.len();
+        let part = self
+            .parts
+            .get(id.0)
+            .ok_or(HairError::UnknownBodyPart { id: id.0, count })?;
+        Ok(self.teleport * part.track_pose)
+    }
+
+    /// The hard body constraint against the body and every part. With more than one of them, a
+    /// node pushed out of one can be pushed into another where they meet (the nape, between
+    /// the neck and the head), so the round over all of them runs twice; with the body alone,
+    /// once, as it always has.
+    pub(crate) fn collide_bodies(&mut self, stats: &mut StepStats) -> Result<(), HairError> {
+        let (head_now, limits) = (*self.head.current(), self.head.limits());
+        let head_next = self.head.next().copied().unwrap_or(head_now);
+        let to_track = self.teleport.inverse();
+        for part in &mut self.parts {
+            let next = part
+                .pending
+                .take()
+                .map_or(part.track_pose, |w| to_track * w);
+            let previous = head_now.inverse() * part.track_pose;
+            let pose = head_next.inverse() * next;
+            let jump = beyond(&previous, &pose, limits);
+            part.motion = Some(PartMotion {
+                pose,
+                previous: if jump { pose } else { previous },
+                dt: self.settings.dt,
+            });
+            part.track_pose = next;
+        }
+        let bodies = usize::from(self.body.is_some()) + self.parts.len();
+        let rounds = if bodies > 1 { 2 } else { 1 };
+        let (front, step, collision) = (&self.front_nodes, self.steps, &self.scene.collision);
+        for round in 0..rounds {
+            let mut deepest: Real = 0.0;
+            let mut contacts = 0;
+            if let Some(body) = &self.body {
+                let report =
+                    self.body_constraint
+                        .apply(&mut self.state, body, front, step, collision)?;
+                contacts += report.contacts;
+                deepest = deepest.max(report.max_penetration);
+            }
+            for part in &mut self.parts {
+                let Some(motion) = part.motion else { continue };
+                let report = part.constraint.apply_moving(
+                    &mut self.state,
+                    &part.body,
+                    &motion,
+                    front,
+                    step,
+                    collision,
+                )?;
+                contacts += report.contacts;
+                deepest = deepest.max(report.max_penetration);
+            }
+            if round == 0 {
+                stats.body_contacts = contacts;
+            }
+            stats.max_penetration_m = f64::from(deepest);
+        }
+        Ok(())
+    }
+}
+
+/// Whether a part's move from `a` to `b` (head frame) goes beyond the teleport limits.
+fn beyond(a: &HeadPose, b: &HeadPose, limits: TeleportLimits) -> bool {
+    let distance = (b.translation.vector - a.translation.vector).norm();
+    distance > limits.distance || a.rotation.angle_to(&b.rotation) > limits.angle
+}
+
+/// An error naming the part for a pose with a non-finite number.
+fn check_pose(part: &str, pose: &Isometry3<Real>) -> Result<(), HairError> {
+    let mut numbers = pose
+        .translation
+        .vector
+        .iter()
+        .chain(pose.rotation.coords.iter());
+    if numbers.all(|x| x.is_finite()) {
+        return Ok(());
+    }
+    Err(HairError::BodyPart {
+        part: part.into(),
+        message: format!("the pose must be finite, got {pose:?}"),
+    })
+}
