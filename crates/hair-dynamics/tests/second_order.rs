@@ -185,6 +185,21 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
     }
 }
 
+/// The largest difference between two states' angles (rad) and rates (rad/s). The coupled step
+/// of an attached strand in still air runs in SIMD lanes, which round differently from the
+/// scalar step BDF2 shares (they agree to about 1e-5 rad), so "the same step" is a gap of that size.
+fn gap(a: &StrandState, b: &StrandState) -> f32 {
+    coordinates(a)
+        .iter()
+        .zip(coordinates(b))
+        .map(|(x, y)| (f32::from_bits(*x) - f32::from_bits(y)).abs())
+        .fold(0.0, f32::max)
+}
+
+/// The largest gap two runs of the same step may show: the lanes' rounding, far below what the
+/// history changes.
+const SAME_STEP: f32 = 1e-5;
+
 /// Angles and rates of every node, bit for bit.
 fn coordinates(state: &StrandState) -> Vec<u32> {
     [
@@ -215,12 +230,18 @@ fn bdf2_starts_and_restarts_with_backward_euler() {
         s
     };
     let (b1, c1) = (after(start.clone(), &bdf2), after(start.clone(), &coupled));
-    assert_eq!(coordinates(&b1), coordinates(&c1), "first step");
+    assert!(
+        gap(&b1, &c1) <= SAME_STEP,
+        "{}: {}",
+        "first step",
+        gap(&b1, &c1)
+    );
     let (b2, c2) = (after(b1.clone(), &bdf2), after(b1.clone(), &coupled));
-    assert_ne!(
-        coordinates(&b2),
-        coordinates(&c2),
-        "the second step uses the history"
+    assert!(
+        gap(&b2, &c2) > 100.0 * SAME_STEP,
+        "{}: {}",
+        "the second step uses the history",
+        gap(&b2, &c2)
     );
 
     // A tool (or a collision response) rewrites an angle: the next step is backward Euler.
@@ -228,33 +249,41 @@ fn bdf2_starts_and_restarts_with_backward_euler() {
     let tip = state_tip(&edited, id);
     edited.theta_mut()[tip] += 0.01;
     let (b3, c3) = (after(edited.clone(), &bdf2), after(edited, &coupled));
-    assert_eq!(
-        coordinates(&b3),
-        coordinates(&c3),
-        "after an edit of an angle"
+    assert!(
+        gap(&b3, &c3) <= SAME_STEP,
+        "{}: {}",
+        "after an edit of an angle",
+        gap(&b3, &c3)
     );
     let mut edited = b2.clone();
     edited.rates_mut().1[tip] *= 0.5;
     let (b3, c3) = (after(edited.clone(), &bdf2), after(edited, &coupled));
-    assert_eq!(
-        coordinates(&b3),
-        coordinates(&c3),
-        "after an edit of a rate"
+    assert!(
+        gap(&b3, &c3) <= SAME_STEP,
+        "{}: {}",
+        "after an edit of a rate",
+        gap(&b3, &c3)
     );
 
     // A new step size: backward Euler again (BDF2's coefficients assume equal steps).
     let half = settings(dt / 2.0, Integrator::ImplicitBdf2, TorqueModel::Chain);
     let half_coupled = settings(dt / 2.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
     let (b3, c3) = (after(b2.clone(), &half), after(b2.clone(), &half_coupled));
-    assert_eq!(coordinates(&b3), coordinates(&c3), "after a change of step");
+    assert!(
+        gap(&b3, &c3) <= SAME_STEP,
+        "{}: {}",
+        "after a change of step",
+        gap(&b3, &c3)
+    );
 
     // Steps of another integrator in between: restart as well.
     let c_then_b = after(after(b2.clone(), &coupled), &bdf2);
     let c_then_c = after(after(b2, &coupled), &coupled);
-    assert_eq!(
-        coordinates(&c_then_b),
-        coordinates(&c_then_c),
-        "after a coupled step"
+    assert!(
+        gap(&c_then_b, &c_then_c) <= SAME_STEP,
+        "{}: {}",
+        "after a coupled step",
+        gap(&c_then_b, &c_then_c)
     );
 }
 

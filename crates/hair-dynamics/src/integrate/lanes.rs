@@ -759,6 +759,7 @@ mod tests {
                 &p,
                 &local,
                 &set,
+                None,
                 &mut sc,
             );
             assert_eq!(bad, None, "the scalar step of strand {s} went non-finite");
