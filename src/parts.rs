@@ -53,7 +53,7 @@ impl Simulation {
     /// call before the step replaces an earlier one. It is carried into the head's frame with
     /// the head's pose at the end of that step, whichever of the two poses is set first. The
     /// part's surface velocity over the step (which the hair's contact with it acts on) is its
-    /// move in the head's frame; a move beyond the head's [`TeleportLimits`] is a teleport: the
+    /// move in the head's frame; a move beyond the head's [`TeleportLimits`](hair_dynamics::TeleportLimits) is a teleport: the
     /// part jumps there and pushes the hair out of it with no velocity, nothing whips. An
     /// unknown id or a non-finite pose is an error and nothing changes.
     pub fn set_body_part_pose(
