@@ -8,46 +8,14 @@
 //! the head's frame as the head turns, and the hair meets it moving.
 
 use crate::{HairError, Simulation, StepStats};
-use hair_collide::{BodyConstraint, PartMotion};
-use hair_dynamics::{HeadPose, TeleportLimits};
+pub use hair_collide::BodyPart;
+use hair_dynamics::HeadPose;
 use hair_ssv::{MeshBody, Point, Real};
 use nalgebra::Isometry3;
 
 /// Which body part: its index in [`Simulation::body_parts`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct PartId(pub usize);
-
-/// A rigid body part: its mesh in its own frame and where it is.
-#[derive(Clone, Debug)]
-pub struct BodyPart {
-    name: String,
-    body: MeshBody,
-    /// Track frame (world less the teleport offset) from part, as of the end of the last step.
-    track_pose: HeadPose,
-    /// The world pose the caller set for the end of the next step.
-    pending: Option<HeadPose>,
-    /// This step's motion in the head frame, once the step reached the collision stage.
-    motion: Option<PartMotion>,
-    constraint: BodyConstraint,
-}
-
-impl BodyPart {
-    /// The name the part was added with.
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
-    /// The part's mesh (m, its own frame).
-    pub fn body(&self) -> &MeshBody {
-        &self.body
-    }
-
-    /// The part's poses in the head's frame (the hair's) at the start and end of the last
-    /// step; `None` before the first step.
-    pub fn motion(&self) -> Option<&PartMotion> {
-        self.motion.as_ref()
-    }
-}
 
 impl Simulation {
     /// Adds a body part that moves rigidly: a closed triangle mesh (m, the part's own frame) at
@@ -77,14 +45,7 @@ impl Simulation {
 
     /// A part at `track_pose` (the head track's frame).
     pub(crate) fn push_part(&mut self, name: &str, body: MeshBody, track_pose: HeadPose) -> PartId {
-        self.parts.push(BodyPart {
-            name: name.into(),
-            body,
-            track_pose,
-            pending: None,
-            motion: None,
-            constraint: BodyConstraint::new(),
-        });
+        self.parts.push(BodyPart::new(name, body, track_pose));
         PartId(self.parts.len() - 1)
     }
 
@@ -92,7 +53,7 @@ impl Simulation {
     /// call before the step replaces an earlier one. It is carried into the head's frame with
     /// the head's pose at the end of that step, whichever of the two poses is set first. The
     /// part's surface velocity over the step (which the hair's contact with it acts on) is its
-    /// move in the head's frame; a move beyond the head's [`TeleportLimits`] is a teleport: the
+    /// move in the head's frame; a move beyond the head's [`TeleportLimits`](hair_dynamics::TeleportLimits) is a teleport: the
     /// part jumps there and pushes the hair out of it with no velocity, nothing whips. An
     /// unknown id or a non-finite pose is an error and nothing changes.
     pub fn set_body_part_pose(
@@ -105,8 +66,8 @@ impl Simulation {
             .parts
             .get_mut(id.0)
             .ok_or(HairError::UnknownBodyPart { id: id.0, count })?;
-        check_pose(&part.name, &world_from_part)?;
-        part.pending = Some(world_from_part);
+        check_pose(part.name(), &world_from_part)?;
+        part.set_next(world_from_part);
         Ok(())
     }
 
@@ -122,7 +83,7 @@ impl Simulation {
             .parts
             .get(id.0)
             .ok_or(HairError::UnknownBodyPart { id: id.0, count })?;
-        Ok(self.teleport * part.track_pose)
+        Ok(self.teleport * part.track_pose())
     }
 
     /// The hard body constraint against the body and every part. With more than one of them, a
@@ -132,21 +93,10 @@ impl Simulation {
     pub(crate) fn collide_bodies(&mut self, stats: &mut StepStats) -> Result<(), HairError> {
         let (head_now, limits) = (*self.head.current(), self.head.limits());
         let head_next = self.head.next().copied().unwrap_or(head_now);
-        let to_track = self.teleport.inverse();
+        let track_from_world = self.teleport.inverse();
         for part in &mut self.parts {
-            let next = part
-                .pending
-                .take()
-                .map_or(part.track_pose, |w| to_track * w);
-            let previous = head_now.inverse() * part.track_pose;
-            let pose = head_next.inverse() * next;
-            let jump = beyond(&previous, &pose, limits);
-            part.motion = Some(PartMotion {
-                pose,
-                previous: if jump { pose } else { previous },
-                dt: self.settings.dt,
-            });
-            part.track_pose = next;
+            let head = (&head_now, &head_next);
+            part.advance(&track_from_world, head, limits, self.settings.dt);
         }
         let bodies = usize::from(self.body.is_some()) + self.parts.len();
         let rounds = if bodies > 1 { 2 } else { 1 };
@@ -162,15 +112,9 @@ impl Simulation {
                 deepest = deepest.max(report.max_penetration);
             }
             for part in &mut self.parts {
-                let Some(motion) = part.motion else { continue };
-                let report = part.constraint.apply_moving(
-                    &mut self.state,
-                    &part.body,
-                    &motion,
-                    front,
-                    step,
-                    collision,
-                )?;
+                let Some(report) = part.constrain(&mut self.state, front, step, collision)? else {
+                    continue;
+                };
                 contacts += report.contacts;
                 deepest = deepest.max(report.max_penetration);
             }
@@ -181,12 +125,6 @@ impl Simulation {
         }
         Ok(())
     }
-}
-
-/// Whether a part's move from `a` to `b` (head frame) goes beyond the teleport limits.
-fn beyond(a: &HeadPose, b: &HeadPose, limits: TeleportLimits) -> bool {
-    let distance = (b.translation.vector - a.translation.vector).norm();
-    distance > limits.distance || a.rotation.angle_to(&b.rotation) > limits.angle
 }
 
 /// An error naming the part for a pose with a non-finite number.

@@ -45,6 +45,15 @@ fn method<'a>(doc: &'a Value, name: &str) -> &'a Value {
         .unwrap_or_else(|| panic!("no integrator `{name}`"))
 }
 
+/// The methods every study compares: the coupled steps of each order and the engines' XPBD.
+const COMPARED: [&str; 5] = [
+    "implicit_coupled",
+    "implicit_ros2",
+    "implicit_ros3",
+    "implicit_bdf2",
+    "xpbd",
+];
+
 #[test]
 fn stability_maps_the_second_order_steps_and_xpbd() {
     let dir = out_dir("stability");
@@ -63,13 +72,7 @@ fn stability_maps_the_second_order_steps_and_xpbd() {
         "1",
     ]);
     let doc = read_json(&json);
-    for name in [
-        "implicit_coupled",
-        "implicit_ros2",
-        "implicit_ros3",
-        "implicit_bdf2",
-        "xpbd",
-    ] {
+    for name in COMPARED {
         let m = method(&doc, name);
         let cells = m["cells"].as_array().expect("cells");
         assert_eq!(cells.len(), 11, "{name}: one stiffness x 11 steps");
@@ -110,13 +113,7 @@ fn accuracy_runs_xpbd_at_a_hundredth_and_on_the_elastica() {
         "8",
     ]);
     let doc = read_json(&json);
-    for name in [
-        "implicit_coupled",
-        "implicit_ros2",
-        "implicit_ros3",
-        "implicit_bdf2",
-        "xpbd",
-    ] {
+    for name in COMPARED {
         let runs = method(&doc, name)["runs"].as_array().expect("runs");
         let run = runs
             .iter()
@@ -170,13 +167,7 @@ fn bench_dynamics_measures_the_coupled_steps_and_xpbd_in_one_run() {
         "xpbd",
     ]);
     let doc: Value = serde_json::from_str(&out).expect("one JSON object");
-    for key in [
-        "implicit_coupled",
-        "implicit_ros2",
-        "implicit_ros3",
-        "implicit_bdf2",
-        "xpbd",
-    ] {
+    for key in COMPARED {
         let rate = doc[key]["node_steps_per_s"].as_f64();
         assert!(rate.is_some_and(|r| r > 0.0), "{key}: {doc}");
         assert_eq!(doc[key]["non_finite_steps"], 0, "{key}");

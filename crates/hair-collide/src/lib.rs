@@ -52,6 +52,7 @@ mod hair_hair;
 mod localization;
 mod model;
 mod pairs;
+mod part;
 mod settings;
 mod volume;
 
@@ -61,5 +62,6 @@ pub use hair_hair::{HairHairReport, HairHairStage};
 pub use localization::Localization;
 pub use model::{HairHairModel, VolumeSettings};
 pub use pairs::{HairPairs, PairsReport, PushCombine, Sections};
+pub use part::BodyPart;
 pub use settings::{CollisionSettings, SettingsError};
 pub use volume::{HairVolume, Lattice, VolumeReport};

@@ -26,6 +26,14 @@ pub struct TeleportLimits {
     pub angle: Real,
 }
 
+impl TeleportLimits {
+    /// Whether a move from `from` to `to` in one step goes beyond the limits (a teleport).
+    pub fn exceeded_by(&self, from: &HeadPose, to: &HeadPose) -> bool {
+        let distance = (to.translation.vector - from.translation.vector).norm();
+        distance > self.distance || from.rotation.angle_to(&to.rotation) > self.angle
+    }
+}
+
 impl Default for TeleportLimits {
     fn default() -> Self {
         Self {
@@ -143,9 +151,7 @@ impl HeadPoseTrack {
     /// [`PoseJump::Teleport`]). A later call before the step replaces an earlier one.
     pub fn set_next(&mut self, pose: HeadPose) -> Result<PoseJump, DynamicsError> {
         check_pose("head pose", &pose)?;
-        let distance = (pose.translation.vector - self.current.translation.vector).norm();
-        let angle = self.current.rotation.angle_to(&pose.rotation);
-        if distance <= self.limits.distance && angle <= self.limits.angle {
+        if !self.limits.exceeded_by(&self.current, &pose) {
             self.next = Some(pose);
             return Ok(PoseJump::Smooth);
         }
