@@ -721,11 +721,31 @@ mod tests {
     /// One step of every strand by the scalar structured step (`step_strand`, one strand at a
     /// time), returning the new angles (theta and phi of every node).
     fn scalar_structured(state: &StrandState, h: Real, model: TorqueModel) -> (Vec<Real>, usize) {
+        let (after, fallbacks) = scalar_structured_coordinates(state, h, model);
+        (after.angles, fallbacks)
+    }
+
+    /// A state's coordinates after a step, each field theta's nodes then phi's (lengths once).
+    struct Coordinates {
+        angles: Vec<Real>,
+        rates: Vec<Real>,
+        lengths: Vec<Real>,
+    }
+
+    /// [`scalar_structured`]'s step, returning every coordinate it changes.
+    fn scalar_structured_coordinates(
+        state: &StrandState,
+        h: Real,
+        model: TorqueModel,
+    ) -> (Coordinates, usize) {
         let env = Environment::default();
         let local = env.local::<Real>();
         let set = settings(h, model, LinearSolver::Structured);
         let mut theta = state.theta.clone();
         let mut phi = state.phi.clone();
+        let mut omega_theta = state.omega_theta.clone();
+        let mut omega_phi = state.omega_phi.clone();
+        let mut lengths = state.length.clone();
         let mut sc = Scratch::default();
         for s in 0..state.skeleton_count() {
             let g = state.nodes(crate::SkeletonId(s as u32));
@@ -766,9 +786,17 @@ mod tests {
             for i in 1..n {
                 theta[g.start + i] = q[2 * i - 2];
                 phi[g.start + i] = q[2 * i - 1];
+                omega_theta[g.start + i] = w[2 * i - 2];
+                omega_phi[g.start + i] = w[2 * i - 1];
             }
+            lengths[g.clone()].copy_from_slice(&length);
         }
-        (theta.into_iter().chain(phi).collect(), sc.dense_fallbacks)
+        let after = Coordinates {
+            angles: theta.into_iter().chain(phi).collect(),
+            rates: omega_theta.into_iter().chain(omega_phi).collect(),
+            lengths,
+        };
+        (after, sc.dense_fallbacks)
     }
 
     /// One step through `StrandState::step` (the lanes for the structured solver, the scalar
@@ -819,6 +847,143 @@ mod tests {
             // Gentle cases never decline, in either path.
             prop_assert_eq!((lane_fallbacks, scalar_fallbacks), (0, 0));
         }
+    }
+
+    /// Hair resting on a moving surface, as the body stage leaves it before a step: strands
+    /// stepped a while, then the nodes below a floor lifted onto it (`apply_corrections`), their
+    /// rates rewritten by the floor's constraint while the floor slides and rises
+    /// (`apply_velocity_constraints_on_surfaces`, friction 0.8), segments shorter or longer than
+    /// their rest (as contacts and stretch springs leave them; half the strands with stretch
+    /// springs), a load on every node. One more step by the lanes and by the scalar structured
+    /// step: the same angles (1e-5 rad), rates (1e-4 of the largest rate) and lengths (1e-6 m).
+    #[test]
+    fn the_lane_step_agrees_with_the_scalar_step_on_hair_resting_on_a_moving_surface() {
+        use crate::{NodeCorrection, VelocityConstraint};
+        let h = 1.0 / 60.0;
+        let floor = -0.03;
+        let surface = Vector::new(0.2, 0.05, -0.1);
+        let mut constrained = 0;
+        for seed in 0..6u64 {
+            let model = if seed % 2 == 0 {
+                TorqueModel::Chain
+            } else {
+                TorqueModel::Local
+            };
+            let mut state = strands(19, 12, seed, 0.5, 1.0, 1e-4, 0.01);
+            for s in (0..state.skeleton_count()).step_by(2) {
+                for i in state.nodes(crate::SkeletonId(s as u32)) {
+                    state.k_stretch_mut()[i] = 50.0;
+                }
+            }
+            let steady = settings(h, model, LinearSolver::Structured);
+            for _ in 0..5 {
+                state
+                    .step(&Environment::default(), &steady)
+                    .expect("a finite step");
+            }
+            let mut rng = Rng(seed ^ 0x5EED);
+            for len in state.length_mut() {
+                *len *= 1.0 + 0.05 * rng.signed();
+            }
+            for s in 0..state.skeleton_count() {
+                state.refresh_positions(crate::SkeletonId(s as u32));
+            }
+            let below: Vec<u32> = (0..state.node_count())
+                .filter(|&i| state.positions()[i].y < floor)
+                .map(|i| i as u32)
+                .collect();
+            let lift: Vec<NodeCorrection> = below
+                .iter()
+                .map(|&node| NodeCorrection {
+                    node,
+                    delta: Vector::y() * (floor - state.positions()[node as usize].y),
+                })
+                .collect();
+            state.apply_corrections(&lift).expect("finite corrections");
+            let contacts: Vec<VelocityConstraint> = below
+                .iter()
+                .map(|&node| VelocityConstraint {
+                    node,
+                    normal: Vector::y(),
+                    friction: 0.8,
+                })
+                .collect();
+            let moving = vec![surface; contacts.len()];
+            state
+                .apply_velocity_constraints_on_surfaces(&contacts, &moving)
+                .expect("finite constraints");
+            constrained += contacts.len();
+
+            let mut lanes = state.clone();
+            let report = lanes
+                .step(&Environment::default(), &steady)
+                .expect("a finite step");
+            let (scalar, scalar_fallbacks) = scalar_structured_coordinates(&state, h, model);
+            assert_eq!(
+                report.dense_fallbacks, scalar_fallbacks,
+                "seed {seed}: fallbacks"
+            );
+            let angles: Vec<Real> = lanes.theta.iter().chain(&lanes.phi).copied().collect();
+            let rates: Vec<Real> = lanes
+                .omega_theta
+                .iter()
+                .chain(&lanes.omega_phi)
+                .copied()
+                .collect();
+            let fastest = scalar.rates.iter().fold(1.0, |m: Real, w| m.max(w.abs()));
+            assert!(
+                worst(&angles, &scalar.angles) <= 1e-5,
+                "seed {seed}: angles differ by {:e} rad",
+                worst(&angles, &scalar.angles)
+            );
+            assert!(
+                worst(&rates, &scalar.rates) <= 1e-4 * fastest,
+                "seed {seed}: rates differ by {:e} rad/s (largest {fastest} rad/s)",
+                worst(&rates, &scalar.rates)
+            );
+            assert!(
+                worst(&lanes.length, &scalar.lengths) <= 1e-6,
+                "seed {seed}: lengths differ by {:e} m",
+                worst(&lanes.length, &scalar.lengths)
+            );
+            // The positions and velocities the lanes publish are the scalar coordinates'.
+            let mut reference = state.clone();
+            let m = reference.node_count();
+            reference.theta.copy_from_slice(&scalar.angles[..m]);
+            reference.phi.copy_from_slice(&scalar.angles[m..]);
+            reference.omega_theta.copy_from_slice(&scalar.rates[..m]);
+            reference.omega_phi.copy_from_slice(&scalar.rates[m..]);
+            reference.length.copy_from_slice(&scalar.lengths);
+            for s in 0..reference.skeleton_count() {
+                reference.refresh_positions(crate::SkeletonId(s as u32));
+            }
+            let apart = |a: &[Vector], b: &[Vector]| {
+                a.iter()
+                    .zip(b)
+                    .map(|(x, y)| (x - y).norm())
+                    .fold(0.0, Real::max)
+            };
+            let moved = apart(
+                &lanes.positions.iter().map(|p| p.coords).collect::<Vec<_>>(),
+                &reference
+                    .positions
+                    .iter()
+                    .map(|p| p.coords)
+                    .collect::<Vec<_>>(),
+            );
+            let sped = apart(&lanes.velocities, &reference.velocities);
+            println!("seed {seed}: positions {moved:e} m, velocities {sped:e} m/s");
+            assert!(
+                moved <= 1e-5,
+                "seed {seed}: positions differ by {moved:e} m"
+            );
+            assert!(
+                sped <= 1e-4 * 0.2 * fastest,
+                "seed {seed}: velocities differ by {sped:e} m/s"
+            );
+        }
+        // The floor caught a good share of the 6 x 19 x 12 nodes.
+        assert!(constrained > 200, "only {constrained} nodes constrained");
     }
 
     /// Wildly bent strands under loads of a thousand times their weight: some lanes decline their
