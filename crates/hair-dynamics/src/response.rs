@@ -621,6 +621,29 @@ impl StrandState {
         Ok(())
     }
 
+    /// Adds forces (node, N in the head frame) that act during the next [`StrandState::step`]
+    /// only, on top of [`StrandState::external_force_mut`]'s. A response that asks for a velocity
+    /// change `dv` over a step of `dt` applies `m dv / dt` here, so the step distributes it to the
+    /// joints through the model's own inertia, and its power on the model's energy is exactly its
+    /// power on the nodes' velocities; a velocity set directly has no such bound.
+    pub fn add_forces_for_next_step(
+        &mut self,
+        forces: &[(u32, Vector)],
+    ) -> Result<(), DynamicsError> {
+        let count = self.theta.len();
+        for (node, f) in forces {
+            if *node as usize >= count {
+                return Err(DynamicsError::UnknownNode {
+                    node: *node as usize,
+                    count,
+                });
+            }
+            crate::error::finite_vec("force for the next step", f)?;
+        }
+        self.next_step_forces.extend_from_slice(forces);
+        Ok(())
+    }
+
     /// Sets node velocities (head frame) and maps them back to angular velocities, root to tip,
     /// as [`StrandState::apply_velocity_constraints`] does.
     pub fn apply_velocity_targets(
