@@ -382,6 +382,7 @@ fn degenerate_strands_in_hair_files_name_the_file_and_strand() {
 fn hair_hair_push_is_used_and_deterministic() {
     let hash = |push: hair::scene::PushCombine, threads: usize| {
         let mut scene = Scene::load("wind").unwrap();
+        scene.scene.collision.hair_hair = hair::collide::HairHairModel::Pairs;
         scene.scene.collision.hair_hair_push = push;
         on_threads(threads, || {
             let mut sim = Simulation::new(&scene, LodPolicy::Fine).unwrap();
@@ -422,6 +423,7 @@ fn hair_hair_push_is_used_and_deterministic() {
 fn pair_search_interval_reuses_the_pairs_deterministically() {
     let run_with = |interval: u32, localization: bool, threads: usize| {
         let mut scene = Scene::load("wind").unwrap();
+        scene.scene.collision.hair_hair = hair::collide::HairHairModel::Pairs;
         scene.scene.collision.pair_search_interval = interval;
         scene.scene.localization = localization;
         let tolerance = f64::from(scene.scene.collision.tolerance);
