@@ -61,10 +61,11 @@ fn report(sim: &Simulation, step: usize, chords: &[Vector]) {
     let top = |s: usize| drawn.strand(s).iter().map(|q| q.y).fold(f32::MIN, f32::max);
     let standing = (0..drawn.strand_count()).filter(|&s| top(s) > HEAD_TOP + ABOVE);
     println!(
-        "step {step}: {} front skeletons, {} drawn strands above {:.3} m",
+        "step {step}: {} front skeletons, {} drawn strands above {:.3} m, kinetic energy {:.3e} J",
         sim.front_nodes().len(),
         standing.clone().count(),
-        HEAD_TOP + ABOVE
+        HEAD_TOP + ABOVE,
+        sim.kinetic_energy()
     );
     for &n in sim.front_nodes() {
         let node = chord(&h.rest_points(n));
