@@ -171,6 +171,7 @@ impl Simulation {
         }
         let (mut state, node_radius) = skeletons(&scene, &hierarchy)?;
         let front_nodes = lod_stage::fixed_front(&hierarchy, policy);
+        let sections = crate::rest::make_groom_rest(&mut state, body.as_ref(), &front_nodes, &scene)?;
         for s in 0..hierarchy.node_count() as u32 {
             state.set_active(SkeletonId(s), front_nodes.binary_search(&s).is_ok());
         }
@@ -202,7 +203,7 @@ impl Simulation {
             steps: 0,
             lod,
             grid: Grid::new(GridConfig::default()),
-            sections: Sections::default(),
+            sections,
             localization: Localization::default(),
             hair_hair: HairHairStage::new(),
             body_constraint: BodyConstraint::new(),
