@@ -58,7 +58,6 @@ mod error;
 pub mod hairstyle;
 mod lod_stage;
 mod parts;
-mod rest;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod scene;
