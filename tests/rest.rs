@@ -89,3 +89,58 @@ fn old_scene_files_default_to_sag_free() {
     let scene = Scene::from_ron("Scene(sag_free: false)", "new.ron").expect("loads");
     assert!(!scene.sag_free);
 }
+
+/// The RMS distance (mm) between the positions of the golden runs (`tests/golden.rs`) with and
+/// without `sag_free` over the final front's nodes: what the golden hashes' move stands for. Run with `--ignored
+/// --nocapture`.
+#[test]
+#[ignore]
+fn golden_runs_rms_from_sag() {
+    let strands10k = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/strands10k.ron");
+    let cases = [
+        ("wind", None, 60),
+        ("shake", None, 60),
+        ("torus", None, 60),
+        ("zoom", None, 60),
+        ("bristles", None, 60),
+        ("sintel", None, 60),
+        ("salon", None, 600),
+        ("wardlin", Some(LodPolicy::Fine), 60),
+        ("wardlin", Some(LodPolicy::Adaptive), 60),
+        (strands10k, Some(LodPolicy::Fine), 5),
+    ];
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .expect("pool");
+    for (scene, policy, frames) in cases {
+        let run = |sag_free: bool| {
+            let mut loaded = Scene::load(scene).expect("scene loads");
+            loaded.scene.sag_free = sag_free;
+            let policy = policy.unwrap_or(loaded.scene.lod);
+            pool.install(|| {
+                let mut sim = Simulation::new(&loaded, policy).expect("scene builds");
+                for _ in 0..frames * loaded.scene.substeps {
+                    sim.step().expect("step");
+                }
+                let front = sim
+                    .front_nodes()
+                    .iter()
+                    .map(|&n| sim.state().nodes(SkeletonId(n)));
+                let p = sim.state().positions();
+                let hash = format!("{:016x}", sim.state_hash());
+                (front.flatten().map(|i| p[i]).collect::<Vec<_>>(), hash)
+            })
+        };
+        let ((new, new_hash), (old, old_hash)) = (run(true), run(false));
+        let sq: f64 = new
+            .iter()
+            .zip(&old)
+            .map(|(a, b)| f64::from((a - b).norm_squared()))
+            .sum();
+        let rms = (sq / new.len().max(1) as f64).sqrt() * 1e3;
+        eprintln!(
+            "{scene} {policy:?} {frames} frames: RMS {rms:.1} mm, {new_hash} (without: {old_hash})"
+        );
+    }
+}
