@@ -37,6 +37,9 @@ pub struct Scene {
     pub adaptive: AdaptiveSettings,
     /// Whether dormant regions stop being integrated (salon paper §4.3).
     pub localization: bool,
+    /// Whether the groom is its own rest: rest angles solved so that the groomed shape is the
+    /// static equilibrium under gravity and the body's contact (`docs/dynamics.md`).
+    pub sag_free: bool,
     /// Camera path.
     pub camera: CameraSpec,
     /// Light.
@@ -69,6 +72,7 @@ impl Default for Scene {
             hierarchy: HierarchySpec::default(),
             adaptive: AdaptiveSettings::default(),
             localization: false,
+            sag_free: true,
             camera: CameraSpec::default(),
             light: LightSpec::default(),
             wind: Wind::default(),

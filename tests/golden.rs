@@ -2,8 +2,10 @@
 //! `adaptive`, and `scenes/strands10k.ron`, each for a fixed number of frames, compared with
 //! the hash `hair run SCENE --frames N` prints (`state_hash` in `summary.json`).
 //!
-//! Pinned from the hierarchy of 1c466c1, which splits root strips whose strands run apart into
-//! trees by direction (every scene's hierarchy changed).
+//! Pinned after three changes of 2026-12-06 that move every scene: the hierarchy splits root
+//! strips whose strands run apart into trees by direction (1c466c1), the groom is made its own
+//! rest (`sag_free`, on by default; `sag_free: false` gives the values before it), and the
+//! hair-hair model is the volume unless a scene names another.
 //!
 //! A refactor keeps these bit for bit. A change that moves results on purpose updates them in a
 //! commit of its own that says which change moved them and by how much.
