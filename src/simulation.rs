@@ -172,7 +172,7 @@ impl Simulation {
         let (mut state, node_radius) = skeletons(&scene, &hierarchy)?;
         let front_nodes = lod_stage::fixed_front(&hierarchy, policy);
         let loads = (scene.dynamics.gravity.into(), scene.dynamics.torque);
-        let (rest, collision) = (scene.sag_free.then_some(loads), &scene.collision);
+        let (rest, collision) = (scene.groom_is_its_rest().then_some(loads), &scene.collision);
         let (state_ref, body_ref) = (&mut state, body.as_ref());
         let (sections, _) = make_groom_rest(state_ref, body_ref, &front_nodes, collision, rest)?;
         for s in 0..hierarchy.node_count() as u32 {
