@@ -621,6 +621,25 @@ impl StrandState {
         Ok(())
     }
 
+    /// Checks that every `(node, vector)` names a node slot and is finite, before any is used.
+    fn check_node_vectors(
+        &self,
+        what: &'static str,
+        items: &[(u32, Vector)],
+    ) -> Result<(), DynamicsError> {
+        let count = self.theta.len();
+        for (node, v) in items {
+            if *node as usize >= count {
+                return Err(DynamicsError::UnknownNode {
+                    node: *node as usize,
+                    count,
+                });
+            }
+            crate::error::finite_vec(what, v)?;
+        }
+        Ok(())
+    }
+
     /// Adds forces (node, N in the head frame) that act during the next [`StrandState::step`]
     /// only, on top of [`StrandState::external_force_mut`]'s. A response that asks for a velocity
     /// change `dv` over a step of `dt` applies `m dv / dt` here, so the step distributes it to the
@@ -630,16 +649,7 @@ impl StrandState {
         &mut self,
         forces: &[(u32, Vector)],
     ) -> Result<(), DynamicsError> {
-        let count = self.theta.len();
-        for (node, f) in forces {
-            if *node as usize >= count {
-                return Err(DynamicsError::UnknownNode {
-                    node: *node as usize,
-                    count,
-                });
-            }
-            crate::error::finite_vec("force for the next step", f)?;
-        }
+        self.check_node_vectors("force for the next step", forces)?;
         self.next_step_forces.extend_from_slice(forces);
         Ok(())
     }
@@ -650,16 +660,7 @@ impl StrandState {
         &mut self,
         targets: &[(u32, Vector)],
     ) -> Result<(), DynamicsError> {
-        let count = self.theta.len();
-        for (node, v) in targets {
-            if *node as usize >= count {
-                return Err(DynamicsError::UnknownNode {
-                    node: *node as usize,
-                    count,
-                });
-            }
-            crate::error::finite_vec("velocity target", v)?;
-        }
+        self.check_node_vectors("velocity target", targets)?;
         for (node, v) in targets {
             self.velocities[*node as usize] = *v;
         }
