@@ -37,6 +37,9 @@ pub struct Scene {
     pub adaptive: AdaptiveSettings,
     /// Whether dormant regions stop being integrated (salon paper §4.3).
     pub localization: bool,
+    /// Whether the groom is its own rest: rest angles solved so that the groomed shape is the
+    /// static equilibrium under gravity and the body's contact; see [`Scene::groom_is_its_rest`].
+    pub sag_free: bool,
     /// Camera path.
     pub camera: CameraSpec,
     /// Light.
@@ -69,6 +72,7 @@ impl Default for Scene {
             hierarchy: HierarchySpec::default(),
             adaptive: AdaptiveSettings::default(),
             localization: false,
+            sag_free: true,
             camera: CameraSpec::default(),
             light: LightSpec::default(),
             wind: Wind::default(),
@@ -157,6 +161,19 @@ pub enum HairstyleSpec {
 impl Default for HairstyleSpec {
     fn default() -> Self {
         HairstyleSpec::Procedural(ProceduralHair::default())
+    }
+}
+
+impl Scene {
+    /// Whether `Simulation::new` makes the groom its own rest: `sag_free` and a groom combed as
+    /// hair lies (a file, or the `Draped` style). The other procedural styles are grown off the
+    /// scalp, not combed over it: held as grown they would stand out for good, so they fall.
+    pub fn groom_is_its_rest(&self) -> bool {
+        self.sag_free
+            && match &self.hairstyle {
+                HairstyleSpec::File { .. } => true,
+                HairstyleSpec::Procedural(p) => p.style == StyleSpec::Draped,
+            }
     }
 }
 

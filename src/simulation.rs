@@ -8,7 +8,7 @@
 use crate::lod_stage::{self, LodStage};
 use crate::scene::{HeadMotionSpec, LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
-use hair_collide::{BodyConstraint, HairHairStage, Localization, Sections};
+use hair_collide::{BodyConstraint, HairHairStage, Localization, Sections, make_groom_rest};
 use hair_dynamics::{Environment, HeadPoseTrack, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
 use hair_lod::{Hierarchy, NodeKind};
@@ -171,6 +171,10 @@ impl Simulation {
         }
         let (mut state, node_radius) = skeletons(&scene, &hierarchy)?;
         let front_nodes = lod_stage::fixed_front(&hierarchy, policy);
+        let loads = (scene.dynamics.gravity.into(), scene.dynamics.torque);
+        let (rest, collision) = (scene.groom_is_its_rest().then_some(loads), &scene.collision);
+        let (state_ref, body_ref) = (&mut state, body.as_ref());
+        let (sections, _) = make_groom_rest(state_ref, body_ref, &front_nodes, collision, rest)?;
         for s in 0..hierarchy.node_count() as u32 {
             state.set_active(SkeletonId(s), front_nodes.binary_search(&s).is_ok());
         }
@@ -202,7 +206,7 @@ impl Simulation {
             steps: 0,
             lod,
             grid: Grid::new(GridConfig::default()),
-            sections: Sections::default(),
+            sections,
             localization: Localization::default(),
             hair_hair: HairHairStage::new(),
             body_constraint: BodyConstraint::new(),

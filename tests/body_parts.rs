@@ -190,7 +190,11 @@ fn a_part_at_the_identity_is_the_body() {
         .map(|i| [0.02 * (i as f32 - 10.0), 0.13, -0.05])
         .collect();
     let groom = groom(&roots, [0.0, 0.0, -1.0], 8);
-    let scene = Scene::default();
+    // The hair must fall onto the body for the oracle to see it: not groomed as its own rest.
+    let scene = Scene {
+        sag_free: false,
+        ..Scene::default()
+    };
     let body = Body::Mesh {
         vertices: v.clone(),
         triangles: t.clone(),
@@ -264,6 +268,10 @@ fn hair_over_a_box(friction: f32) -> Simulation {
     let groom = groom(&roots, [0.0, 0.0, 1.0], 10);
     let mut scene = Scene::default();
     scene.collision.friction = friction;
+    // The hair sags onto the box: not groomed as its own rest.
+    scene.sag_free = false;
+    // The body's friction alone carries the hair here, not the volume's pull between strands.
+    scene.collision.hair_hair = hair::collide::HairHairModel::Pairs;
     Simulation::from_groom(&groom, Body::None, &scene).expect("builds")
 }
 

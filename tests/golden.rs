@@ -2,8 +2,10 @@
 //! `adaptive`, and `scenes/strands10k.ron`, each for a fixed number of frames, compared with
 //! the hash `hair run SCENE --frames N` prints (`state_hash` in `summary.json`).
 //!
-//! Pinned from `hair run` at 85ecbcd (the values of 25ed06d16a166dfb / 34e6049b56b22260 for
-//! `wardlin` were first printed at d3031fc).
+//! Pinned after three changes of 2026-12-06 that move every scene: the hierarchy splits root
+//! strips whose strands run apart into trees by direction (1c466c1), a groom combed as hair
+//! lies (`wardlin`, `sintel`) is made its own rest (`sag_free`, on by default), and the
+//! hair-hair model is the volume unless a scene names another.
 //!
 //! A refactor keeps these bit for bit. A change that moves results on purpose updates them in a
 //! commit of its own that says which change moved them and by how much.
@@ -49,31 +51,31 @@ fn check(cases: &[(&str, Option<LodPolicy>, u32, &str)]) {
 #[test]
 fn builtin_scenes_at_their_own_policy() {
     check(&[
-        ("wind", None, 60, "7503e7e61f251afe"),
-        ("shake", None, 60, "12d380855c018333"),
-        ("torus", None, 60, "108ee0d7ffde93a4"),
-        ("zoom", None, 60, "e8e60c6ff3eb6a05"),
-        ("bristles", None, 60, "6c597a9fcab43b7c"),
-        ("sintel", None, 60, "400fb40df38285dd"),
+        ("wind", None, 60, "9c8707c111678f3d"),
+        ("shake", None, 60, "a2d27abdfca92db7"),
+        ("torus", None, 60, "e93d112007a8e19c"),
+        ("zoom", None, 60, "75c6f3fdc30bcd08"),
+        ("bristles", None, 60, "7146138f83e8848d"),
+        ("sintel", None, 60, "7497b2dc9be0e911"),
     ]);
 }
 
 #[test]
 fn salon_session_with_every_tool() {
     // 600 frames: water, two cuts (fallen pieces), spray bonds, mousse, dryer and grab.
-    check(&[("salon", None, 600, "cb799d34d3889a49")]);
+    check(&[("salon", None, 600, "9797c9454de1e8c0")]);
 }
 
 #[test]
 fn wardlin_fine_and_adaptive() {
     check(&[
-        ("wardlin", Some(LodPolicy::Fine), 60, "25ed06d16a166dfb"),
-        ("wardlin", Some(LodPolicy::Adaptive), 60, "34e6049b56b22260"),
+        ("wardlin", Some(LodPolicy::Fine), 60, "ee9cad6bfe6396ac"),
+        ("wardlin", Some(LodPolicy::Adaptive), 60, "56434fac2e52140c"),
     ]);
 }
 
 #[test]
 fn strands10k_five_frames() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/strands10k.ron");
-    check(&[(path, Some(LodPolicy::Fine), 5, "fe21630f8cb5f753")]);
+    check(&[(path, Some(LodPolicy::Fine), 5, "75f6e1caa737dc3d")]);
 }

@@ -129,6 +129,13 @@ pub struct Summary {
     pub tolerance_m: f64,
     /// Structured implicit solves redone by the dense LU, over every step.
     pub dense_fallbacks: usize,
+    /// The largest mean distance (mm) of the simulated nodes from where they were at frame 0
+    /// (as built), over the steps of the first second in the still part of the scene: the
+    /// steps before the head, the wind or a tool first acts. `null` when something acts from
+    /// the start (the head moves or the wind blows): nothing is still to measure.
+    pub rest_drift_mm: Option<f64>,
+    /// Seconds over which `rest_drift_mm` was measured: up to 1 s, cut at the first tool event.
+    pub rest_drift_s: f64,
     /// Hash of the final state's float bits (hex).
     pub state_hash: String,
     /// Salon tool counters at the end (water, bonds, cuts, fallen pieces, grabbed points).
@@ -228,6 +235,9 @@ pub fn simulate(
             );
             b
         });
+        let still_s = still_seconds(&loaded.scene);
+        let start = sim.state().positions().to_vec();
+        let (mut rest_drift, mut rest_drift_s): (Option<f64>, f64) = (None, 0.0);
         let mut metrics = Vec::with_capacity(frames as usize);
         let mut stages = Stages::default();
         let mut total_ms = 0.0;
@@ -256,6 +266,11 @@ pub fn simulate(
                 dense_fallbacks += s.dense_fallbacks;
                 volume_cells += s.volume_cells as f64;
                 hair_contacts += s.hair_contacts as f64;
+                if s.time <= still_s + 1e-6 {
+                    let d = mean_drift_mm(&sim, &start);
+                    rest_drift = Some(rest_drift.map_or(d, |w| w.max(d)));
+                    rest_drift_s = s.time;
+                }
                 steps += 1.0;
                 last = s;
             }
@@ -312,11 +327,40 @@ pub fn simulate(
             max_penetration_m: max_pen,
             tolerance_m: f64::from(loaded.scene.collision.tolerance),
             dense_fallbacks,
+            rest_drift_mm: rest_drift,
+            rest_drift_s,
             state_hash: format!("{:016x}", sim.state_hash()),
             salon: last.salon,
         };
         Ok((summary, metrics, sim))
     })
+}
+
+/// How long `scene` is still from its start, at most 1 s: 0 when the head moves or the wind
+/// blows, else up to its first tool event.
+fn still_seconds(scene: &Scene) -> f64 {
+    if scene.head_motion != hair::scene::HeadMotionSpec::Still || scene.wind.speed > 0.0 {
+        return 0.0;
+    }
+    let first_tool = scene
+        .tools
+        .events
+        .first()
+        .map_or(1.0, |e| f64::from(e.time));
+    first_tool.min(1.0)
+}
+
+/// The mean distance (mm) of the front's nodes from `start` (every node's position at frame 0).
+fn mean_drift_mm(sim: &Simulation, start: &[hair::ssv::Point]) -> f64 {
+    let p = sim.state().positions();
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for &node in sim.front_nodes() {
+        for i in sim.state().nodes(hair::dynamics::SkeletonId(node)) {
+            sum += f64::from((p[i] - start[i]).norm());
+            n += 1;
+        }
+    }
+    sum / n.max(1) as f64 * 1e3
 }
 
 /// Runs the command.

@@ -11,6 +11,8 @@
 //! the clusters. `fine` is also run with the hair-hair pair search every few steps instead of
 //! every step ([`PAIR_SEARCH_INTERVALS`]; `fine+pairs4` searches every fourth step and tests the
 //! pairs it found again in between): what missing the pairs that form between searches costs.
+//! Those rows run the exact pairs model; a scene on the volume model also gets `fine+pairs`,
+//! the exact model searching every step, so the chart shows what the volume gives up.
 //! Every run starts
 //! from the same scene and seed; after every frame the rendered strands' control vertices are
 //! compared with the reference's at the same frame, and the RMS and the maximum over all frames
@@ -172,6 +174,7 @@ fn run_one(
     } = config;
     let mut loaded = scene.clone();
     if pair_interval > 0 {
+        loaded.scene.collision.hair_hair = hair::collide::HairHairModel::Pairs;
         loaded.scene.collision.pair_search_interval = pair_interval;
     }
     loaded.scene.collision.method = method;
@@ -237,8 +240,10 @@ fn run_one(
     if distance_scale != 1.0 {
         name.push_str(&format!("+distance{distance_scale}"));
     }
-    if pair_interval > 0 {
-        name.push_str(&format!("+pairs{pair_interval}"));
+    match pair_interval {
+        0 => {}
+        1 => name.push_str("+pairs"),
+        n => name.push_str(&format!("+pairs{n}")),
     }
     if localization {
         name.push_str("+localized");
@@ -319,11 +324,18 @@ pub fn run(args: Args) -> Result<()> {
         ..config(LodPolicy::Adaptive, own, false)
     }));
     let c = &loaded.scene.collision;
-    if c.hair_hair == hair::collide::HairHairModel::Pairs && c.pair_search_interval == 1 {
-        configs.extend(PAIR_SEARCH_INTERVALS.map(|pair_interval| Config {
-            pair_interval,
-            ..config(LodPolicy::Fine, own, false)
-        }));
+    if c.hair_hair != hair::collide::HairHairModel::Off && c.pair_search_interval == 1 {
+        // The exact pairs beside a scene on the volume: what the cheaper model gives up.
+        let exact = (c.hair_hair != hair::collide::HairHairModel::Pairs).then_some(1);
+        configs.extend(
+            exact
+                .into_iter()
+                .chain(PAIR_SEARCH_INTERVALS)
+                .map(|pair_interval| Config {
+                    pair_interval,
+                    ..config(LodPolicy::Fine, own, false)
+                }),
+        );
     }
     configs.push(config(LodPolicy::Fine, own, true));
     configs.push(config(LodPolicy::Adaptive, own, true));
@@ -572,6 +584,7 @@ mod tests {
             "strips",
             "fine+bvh",
             "fine+maps",
+            "fine+pairs",
             "fine+pairs2",
             "fine+pairs4",
         ] {

@@ -53,6 +53,7 @@ mod localization;
 mod model;
 mod pairs;
 mod part;
+mod rest;
 mod settings;
 mod volume;
 
@@ -63,5 +64,6 @@ pub use localization::Localization;
 pub use model::{HairHairModel, VolumeSettings};
 pub use pairs::{HairPairs, PairsReport, PushCombine, Sections};
 pub use part::BodyPart;
+pub use rest::{GroomRestReport, make_groom_rest};
 pub use settings::{CollisionSettings, SettingsError};
 pub use volume::{HairVolume, Lattice, VolumeReport};

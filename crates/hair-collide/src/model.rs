@@ -4,18 +4,23 @@
 use hair_ssv::Real;
 
 /// Which model hair-hair interaction uses.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum HairHairModel {
     /// Hair as a volume ([`crate::HairVolume`]): friction toward the grid's velocity and a
-    /// push out of over-dense places. No pair search.
+    /// push out of over-dense places. No pair search. The default: it costs what the hair
+    /// costs, not what its contacts cost.
     Volume(VolumeSettings),
     /// The papers' exact model ([`crate::HairPairs`]), the reference: its settings are the
-    /// collision block's `parallel_angle`, `hair_hair_push` and `pair_search_interval`. The
-    /// default, so that scenes keep their results.
-    #[default]
+    /// collision block's `parallel_angle`, `hair_hair_push` and `pair_search_interval`.
     Pairs,
     /// No hair-hair interaction.
     Off,
+}
+
+impl Default for HairHairModel {
+    fn default() -> Self {
+        Self::Volume(VolumeSettings::default())
+    }
 }
 
 impl HairHairModel {

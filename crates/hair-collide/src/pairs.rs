@@ -32,6 +32,12 @@ pub struct Sections {
     pub sections: Vec<Section>,
     /// Each section's end node (the one a push moves).
     pub nodes: Vec<u32>,
+    /// Per node of the state, the most its hair-hair radius may be (empty: no cap): where a
+    /// groom packs crossing hair closer than its radii, the groom's own clearance
+    /// ([`crate::make_groom_rest`]), so that the hair at rest pushes nothing apart.
+    pub radius_cap: Vec<Real>,
+    /// Per node, the radius the sections were built with (the state's, capped).
+    radius: Vec<Real>,
 }
 
 impl Sections {
@@ -39,7 +45,12 @@ impl Sections {
     pub fn build(&mut self, state: &StrandState, front: &[u32]) {
         self.sections.clear();
         self.nodes.clear();
-        let (p, radius) = (state.positions(), state.radius());
+        self.radius.clear();
+        self.radius.extend_from_slice(state.radius());
+        for (r, cap) in self.radius.iter_mut().zip(&self.radius_cap) {
+            *r = r.min(*cap);
+        }
+        let (p, radius) = (state.positions(), &self.radius);
         for &node in front {
             let r = state.nodes(SkeletonId(node));
             for (k, i) in (r.start + 1..r.end).enumerate() {
@@ -51,6 +62,11 @@ impl Sections {
                 self.nodes.push(i as u32);
             }
         }
+    }
+
+    /// Per node of the state, the radius the last [`Sections::build`] gave its sections.
+    pub fn radius(&self) -> &[Real] {
+        &self.radius
     }
 }
 
@@ -128,7 +144,7 @@ impl HairPairs {
         let cos_parallel = settings.parallel_angle.cos();
         let chunks = if let Some((chunks, age)) = self.reuse {
             self.kept_pairs = Some((chunks, age));
-            let (p, radius) = (state.positions(), state.radius());
+            let (p, radius) = (state.positions(), sections.radius());
             let state = &*state;
             self.responses[..chunks]
                 .par_iter_mut()

@@ -56,7 +56,7 @@ impl Default for CollisionSettings {
         Self {
             method: CollisionMethod::Field,
             friction: 0.3,
-            hair_hair: HairHairModel::Pairs,
+            hair_hair: HairHairModel::default(),
             parallel_angle: 0.3,
             hair_hair_push: PushCombine::Mean,
             pair_search_interval: 1,

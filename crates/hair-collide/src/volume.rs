@@ -80,6 +80,8 @@ pub struct HairVolume {
     /// The blended velocities and whether the repulsion pushed the node.
     blended: Vec<(Vector, bool)>,
     targets: Vec<(u32, Vector)>,
+    /// The forces that make the targets' changes over a step.
+    forces: Vec<(u32, Vector)>,
     /// The lattice's mass-weighted mean density (kg/m³): the repulsion's reference.
     mean_density: Real,
 }
@@ -106,8 +108,13 @@ impl HairVolume {
     }
 
     /// The response: every active node's velocity blended toward the grid's and pushed out of
-    /// over-dense places ([`HairVolume::blend`]), then set through
-    /// [`StrandState::apply_velocity_targets`], which maps it to the joints' rates root to tip.
+    /// over-dense places ([`HairVolume::blend`]), applied as the force that makes that change
+    /// over the coming step ([`StrandState::add_forces_for_next_step`]): the step carries it to
+    /// the joints through the strand model's inertia, so the friction takes energy out of the
+    /// model as it does out of the nodes. Setting the velocities and fitting rates to them
+    /// instead (the first form of this model) fed the model energy it never had: a velocity
+    /// change at one node is met by counter-rotating neighbouring joints whose rates each carry
+    /// the inertia of the whole hair beyond them.
     pub fn respond(
         &mut self,
         state: &mut StrandState,
@@ -116,7 +123,13 @@ impl HairVolume {
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
         let report = self.blend(state, front, settings, dt)?;
-        state.apply_velocity_targets(&self.targets)?;
+        let (mass, wetness, velocity) = (state.mass(), state.wetness(), state.velocities());
+        self.forces.clear();
+        self.forces.extend(self.targets.iter().map(|&(i, target)| {
+            let n = i as usize;
+            (i, (target - velocity[n]) * ((mass[n] + wetness[n]) / dt))
+        }));
+        state.add_forces_for_next_step(&self.forces)?;
         Ok(report)
     }
 

@@ -621,32 +621,149 @@ impl StrandState {
         Ok(())
     }
 
-    /// Sets node velocities (head frame) and maps them back to angular velocities, root to tip,
-    /// as [`StrandState::apply_velocity_constraints`] does.
-    pub fn apply_velocity_targets(
-        &mut self,
-        targets: &[(u32, Vector)],
+    /// Checks that every `(node, vector)` names a node slot and is finite, before any is used.
+    fn check_node_vectors(
+        &self,
+        what: &'static str,
+        items: &[(u32, Vector)],
     ) -> Result<(), DynamicsError> {
         let count = self.theta.len();
-        for (node, v) in targets {
+        for (node, v) in items {
             if *node as usize >= count {
                 return Err(DynamicsError::UnknownNode {
                     node: *node as usize,
                     count,
                 });
             }
-            crate::error::finite_vec("velocity target", v)?;
+            crate::error::finite_vec(what, v)?;
         }
+        Ok(())
+    }
+
+    /// Adds forces (node, N in the head frame) that act during the next [`StrandState::step`]
+    /// only, on top of [`StrandState::external_force_mut`]'s. A response that asks for a velocity
+    /// change `dv` over a step of `dt` applies `m dv / dt` here, so the step distributes it to the
+    /// joints through the model's own inertia, and its power on the model's energy is exactly its
+    /// power on the nodes' velocities; a velocity set directly has no such bound.
+    pub fn add_forces_for_next_step(
+        &mut self,
+        forces: &[(u32, Vector)],
+    ) -> Result<(), DynamicsError> {
+        self.check_node_vectors("force for the next step", forces)?;
+        self.next_step_forces.extend_from_slice(forces);
+        Ok(())
+    }
+
+    /// Sets node velocities (head frame) and maps them back to angular velocities, root to tip,
+    /// as [`StrandState::apply_velocity_constraints`] does.
+    pub fn apply_velocity_targets(
+        &mut self,
+        targets: &[(u32, Vector)],
+    ) -> Result<(), DynamicsError> {
+        self.check_node_vectors("velocity target", targets)?;
         for (node, v) in targets {
             self.velocities[*node as usize] = *v;
         }
         let mut touched = std::mem::take(&mut self.touched_scratch);
         self.touched_skeletons(targets.iter().map(|t| t.0), &mut touched);
+        let mut sweep = std::mem::take(&mut self.force_scratch);
         for &s in &touched {
+            self.project_to_inextensible(s as usize, &mut sweep);
             self.velocities_to_angles(s as usize);
         }
+        self.force_scratch = sweep;
         self.touched_scratch = touched;
         Ok(())
+    }
+
+    /// Replaces skeleton `s`'s stored node velocities by the nearest (in kinetic energy, mass
+    /// weighted) velocities that keep every segment's length, with the root's velocity held:
+    /// `min sum m_i |v_i - v*_i|^2` subject to `r_i . (v_i - v_{i-1}) = 0`. Targets a segment
+    /// cannot follow (a stretch along it) are dropped here, once, instead of being carried
+    /// from joint to joint by the root-to-tip fit, which turned them into bending on bent
+    /// strands and raised their energy. A projection onto a subspace through the held root
+    /// velocity never raises the energy of the velocities relative to the root.
+    ///
+    /// The multipliers solve the tridiagonal `J M^-1 J^T lambda = -J v*` (Thomas algorithm,
+    /// `O(n)`), with `sweep` as scratch: per segment the eliminated upper coefficient, the
+    /// eliminated right-hand side and the multiplier.
+    fn project_to_inextensible(&mut self, s: usize, sweep: &mut Vec<Vector>) {
+        let range = self.nodes(crate::SkeletonId(s as u32));
+        let (o, n) = (range.start, range.len());
+        if n < 2 {
+            return;
+        }
+        if sweep.len() < n {
+            sweep.resize(n, Vector::zeros());
+        }
+        let inv_mass = |st: &Self, i: usize| {
+            if i == o {
+                0.0
+            } else {
+                let m = st.mass[i] + st.wetness[i];
+                if m > 0.0 { 1.0 / m } else { 0.0 }
+            }
+        };
+        let axis = |st: &Self, i: usize| {
+            let r = st.positions[i] - st.positions[i - 1];
+            let l = r.norm();
+            if l > 0.0 { r / l } else { Vector::zeros() }
+        };
+        // The root's velocity as the fit reads it (an attached root is still in the head frame).
+        let root_velocity = if self.roots[s].free {
+            self.velocities[o]
+        } else {
+            Vector::zeros()
+        };
+        // Forward elimination: row k (segment k, nodes k-1 and k) reads
+        // (1/m_k + 1/m_{k-1}) l_k - c_{k-1} l_{k-1} / m_{k-1} - c_k l_{k+1} / m_k = -r_k . (v*_k - v*_{k-1}).
+        let mut upper_prev = 0.0;
+        let mut rhs_prev = 0.0;
+        let mut coupling_prev = 0.0;
+        for k in 1..n {
+            let i = o + k;
+            let r = axis(self, i);
+            let (inv, inv_before) = (inv_mass(self, i), inv_mass(self, i - 1));
+            let diag = inv + inv_before;
+            let lower = -coupling_prev;
+            let upper = if k + 1 < n {
+                -r.dot(&axis(self, i + 1)) * inv
+            } else {
+                0.0
+            };
+            let before = if k > 1 {
+                self.velocities[i - 1]
+            } else {
+                root_velocity
+            };
+            let rhs = -r.dot(&(self.velocities[i] - before));
+            let pivot = diag - lower * upper_prev;
+            let (u, d) = if pivot > 0.0 && pivot.is_finite() {
+                (upper / pivot, (rhs - lower * rhs_prev) / pivot)
+            } else {
+                (0.0, 0.0)
+            };
+            sweep[k] = Vector::new(u, d, 0.0);
+            (upper_prev, rhs_prev) = (u, d);
+            coupling_prev = -upper;
+        }
+        // Back substitution, then the velocities from the multipliers.
+        let mut next = 0.0;
+        for k in (1..n).rev() {
+            let lambda = sweep[k].y - sweep[k].x * next;
+            sweep[k].z = lambda;
+            next = lambda;
+        }
+        for k in 1..n {
+            let i = o + k;
+            let after = if k + 1 < n {
+                axis(self, i + 1) * sweep[k + 1].z
+            } else {
+                Vector::zeros()
+            };
+            let change = (axis(self, i) * sweep[k].z - after) * inv_mass(self, i);
+            self.velocities[i] += change;
+        }
     }
 
     /// Sets angular velocities from the stored node velocities, root to tip (least squares per

@@ -152,6 +152,8 @@ pub struct StrandState {
     pub(crate) radius: Vec<Real>,
     pub(crate) rest_points: Vec<Vector>,
     pub(crate) external_force: Vec<Vector>,
+    /// Forces for the next step only (node, force), added by `add_forces_for_next_step`.
+    pub(crate) next_step_forces: Vec<(u32, Vector)>,
     pub(crate) positions: Vec<Point>,
     pub(crate) velocities: Vec<Vector>,
     pub(crate) steps: u64,
@@ -209,6 +211,7 @@ impl Clone for StrandState {
             radius,
             rest_points,
             external_force,
+            next_step_forces,
             positions,
             velocities,
             steps,
@@ -248,6 +251,7 @@ impl Clone for StrandState {
         radius.clone_from(&from.radius);
         rest_points.clone_from(&from.rest_points);
         external_force.clone_from(&from.external_force);
+        next_step_forces.clone_from(&from.next_step_forces);
         positions.clone_from(&from.positions);
         velocities.clone_from(&from.velocities);
         *steps = from.steps;

@@ -504,3 +504,46 @@ fn results_are_identical_for_any_thread_count() {
     assert_eq!(run(1), run(2));
     assert_eq!(run(1), run(3));
 }
+
+/// A force for the next step acts exactly as the same external force set for one step and
+/// cleared after it, bit for bit; a bad node or a non-finite force is an error that queues
+/// nothing.
+#[test]
+fn forces_for_the_next_step_act_for_one_step_only() {
+    let (mut queued, id) = one_strand(
+        Style::Wavy {
+            amplitude: 0.01,
+            period: 0.08,
+        },
+        12,
+        0.25,
+        frame_along(Vector::new(1.0, -0.4, 0.2)),
+        Material::default(),
+    );
+    let mut external = queued.clone();
+    let mut unpushed = queued.clone();
+    let s = settings(1.0 / 60.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    let env = Environment::default();
+    let tip = queued.nodes(id).end - 1;
+    let push = Vector::new(0.0, 0.0, 3e-4);
+    assert!(queued.add_forces_for_next_step(&[(99, push)]).is_err());
+    assert!(
+        queued
+            .add_forces_for_next_step(&[(tip as u32, Vector::new(f32::NAN, 0.0, 0.0))])
+            .is_err()
+    );
+    queued
+        .add_forces_for_next_step(&[(tip as u32, push)])
+        .unwrap();
+    external.external_force_mut()[tip] = push;
+    for k in 0..5 {
+        queued.step(&env, &s).unwrap();
+        external.step(&env, &s).unwrap();
+        external.external_force_mut()[tip] = Vector::zeros();
+        assert_eq!(queued.positions(), external.positions(), "step {k}");
+        assert_eq!(queued.omega_theta(), external.omega_theta(), "step {k}");
+        unpushed.step(&env, &s).unwrap();
+    }
+    let moved = (queued.positions()[tip] - unpushed.positions()[tip]).norm();
+    assert!(moved > 1e-4, "the push moved the tip only {moved} m");
+}

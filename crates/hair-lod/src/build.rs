@@ -8,6 +8,14 @@
 //! `root_strip_width` wide. Each root strip's roots are then projected on the scalp's tangent
 //! plane at the strip's centre: `u` across the strip, `v` down it. Every cross-section below
 //! (strip widths, cluster and strand-group circles) lives in that plane.
+//!
+//! A root strip whose strands run apart (a crown whorl, a parting: neighbouring roots combed
+//! opposite ways) is split into trees by the strands' directions first, until every tree's
+//! strands run within [`MAX_STRAND_SPREAD_DEGREES`] of their mean (`split_divergent`). A
+//! skeleton is the mean of its strands and each strand is drawn at its offset in the skeleton's
+//! frames: strands that run apart average to a skeleton standing off the scalp that stands for
+//! none of them, and when it turns under gravity their offsets, as long as the strands, swing
+//! with it over the crown (issue 40's stray loops).
 
 use crate::error::{finite_positive, ordered};
 use crate::hierarchy::{Hierarchy, NO_PARENT, NodeKind};
@@ -277,7 +285,14 @@ impl Hierarchy {
         let mut resampled: Vec<Vector3<f64>> = Vec::new();
         let mut mec_scratch: Vec<(f64, f64)> = Vec::new();
         let mut slot_of = vec![0usize; n_strands];
-        for ((row, sector), members) in strips {
+        let chords: Vec<Vector3<f64>> = style.strands.iter().map(chord).collect();
+        let mut trees: Vec<((u32, u32), Vec<u32>)> = Vec::with_capacity(strips.len());
+        let mut parts = Vec::new();
+        for (key, members) in strips {
+            split_divergent(members, &chords, &mut parts);
+            trees.extend(parts.drain(..).map(|m| (key, m)));
+        }
+        for ((row, sector), members) in trees {
             let tree = h.frames.len() as u32;
             let tree_first = h.kind.len() as u32;
             // Tangent plane at the strip's centre.
@@ -486,6 +501,60 @@ impl Hierarchy {
 
 fn to64(v: &Vector) -> Vector3<f64> {
     Vector3::new(f64::from(v.x), f64::from(v.y), f64::from(v.z))
+}
+
+/// Largest angle between a strand's chord (root to tip) and the mean chord of the strands of
+/// its tree (degrees): a root strip spreading wider is split by `split_divergent`.
+pub const MAX_STRAND_SPREAD_DEGREES: f64 = 30.0;
+
+/// A strand's unit chord, root to tip; its root direction when it closes on itself.
+fn chord(strand: &crate::Strand) -> Vector3<f64> {
+    let (first, last) = (strand.points[0], strand.points[strand.points.len() - 1]);
+    to64(&(last - first))
+        .try_normalize(1e-12)
+        .unwrap_or_else(|| to64(&(strand.frame * Vector::z())))
+}
+
+/// Splits `members` (strand indices, unit `chords`) into parts whose chords all lie within
+/// [`MAX_STRAND_SPREAD_DEGREES`] of their part's mean, appended to `out`, each in `members`'
+/// order. A part too wide is cut in two about its two most different chords (the one farthest
+/// from the mean and the one farthest from that), each strand going with the nearer of them.
+fn split_divergent(members: Vec<u32>, chords: &[Vector3<f64>], out: &mut Vec<Vec<u32>>) {
+    let cos_max = MAX_STRAND_SPREAD_DEGREES.to_radians().cos();
+    let mut stack = vec![members];
+    while let Some(set) = stack.pop() {
+        let sum: Vector3<f64> = set.iter().map(|&s| chords[s as usize]).sum();
+        let Some(&first) = set.first() else {
+            continue;
+        };
+        let mean = sum.try_normalize(1e-9).unwrap_or(chords[first as usize]);
+        let farthest_from = |d: &Vector3<f64>| {
+            set.iter()
+                .copied()
+                .min_by(|&a, &b| {
+                    let (ca, cb) = (chords[a as usize].dot(d), chords[b as usize].dot(d));
+                    ca.total_cmp(&cb)
+                })
+                .unwrap_or(first)
+        };
+        let far = farthest_from(&mean);
+        if chords[far as usize].dot(&mean) >= cos_max {
+            out.push(set);
+            continue;
+        }
+        let a = chords[far as usize];
+        let b = chords[farthest_from(&a) as usize];
+        let (near_a, near_b): (Vec<u32>, Vec<u32>) = set
+            .iter()
+            .partition(|&&s| chords[s as usize].dot(&a) >= chords[s as usize].dot(&b));
+        if near_a.is_empty() || near_b.is_empty() {
+            out.push(set);
+            continue;
+        }
+        // Popped last-in first: `near_a` is split (or kept) before `near_b`.
+        stack.push(near_b);
+        stack.push(near_a);
+    }
 }
 
 /// A right-handed frame with z along `z` and x as close to `x` as possible.

@@ -88,7 +88,7 @@ pub use adaptive::{
     AdaptiveLod, AdaptiveSettings, BODY_DEPTH_SIZE, BodyDepth, HIDDEN_AFTER, HIDDEN_BEHIND,
     OccluderMesh, SPEED_HOLD, View,
 };
-pub use build::{HierarchyParams, HierarchySpec, MinGroup};
+pub use build::{HierarchyParams, HierarchySpec, MAX_STRAND_SPREAD_DEGREES, MinGroup};
 pub use error::LodError;
 pub use hairstyle::{Hairstyle, Strand};
 pub use hierarchy::{Hierarchy, HierarchyStats, LevelCount, NO_PARENT, NodeKind};

@@ -264,7 +264,12 @@ fn bonds_pass_to_every_child_and_back_to_the_parent() {
     let (_, h) = small_head(300, 2);
     let mut front = Front::coarsest(&h);
     let mut state = LodState::new(&h);
-    let (p, q) = (h.tree_root(0), h.tree_root(1));
+    // Two trees whose roots split in two or more (not every tree's does: a few strands split
+    // off by direction at the top of the head make a tree of their own).
+    let mut splitting = (0..h.tree_count() as u32)
+        .map(|t| h.tree_root(t))
+        .filter(|&r| h.children(r).len() >= 2);
+    let (p, q) = (splitting.next().unwrap(), splitting.next().unwrap());
     let bond = LodBond {
         a: BondEnd { node: p, point: 4 },
         b: BondEnd { node: q, point: 3 },

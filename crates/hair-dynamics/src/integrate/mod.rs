@@ -708,6 +708,10 @@ impl StrandState {
         let mut force = std::mem::take(&mut self.force_scratch);
         force.clear();
         force.extend_from_slice(&self.external_force);
+        for &(node, f) in &self.next_step_forces {
+            force[node as usize] += f;
+        }
+        self.next_step_forces.clear();
         self.accumulate_bond_forces(&mut force);
         let nodes = self.theta.len();
         let skeletons = self.offsets.len();
