@@ -5,7 +5,9 @@
 //! Pinned after three changes of 2026-12-06 that move every scene: the hierarchy splits root
 //! strips whose strands run apart into trees by direction (1c466c1), a groom combed as hair
 //! lies (`wardlin`, `sintel`) is made its own rest (`sag_free`, on by default), and the
-//! hair-hair model is the volume unless a scene names another.
+//! hair-hair model is the volume unless a scene names another. `salon` (a still head in still
+//! air) is advanced by the coupled step in SIMD lanes, which rounds differently from the scalar
+//! structured step: its pin is the lanes'.
 //!
 //! A refactor keeps these bit for bit. A change that moves results on purpose updates them in a
 //! commit of its own that says which change moved them and by how much.
@@ -63,7 +65,7 @@ fn builtin_scenes_at_their_own_policy() {
 #[test]
 fn salon_session_with_every_tool() {
     // 600 frames: water, two cuts (fallen pieces), spray bonds, mousse, dryer and grab.
-    check(&[("salon", None, 600, "9797c9454de1e8c0")]);
+    check(&[("salon", None, 600, "0cf1a15834b4b1a3")]);
 }
 
 #[test]
