@@ -5,7 +5,7 @@ use crate::HairError;
 use crate::scene::{HairstyleSpec, ProceduralHair, StyleSpec};
 use hair_dynamics::{Style, resample_polyline, style_points};
 use hair_lod::{Hairstyle, Strand};
-use hair_ssv::scalp::{DRAPE_CLEARANCE, ScalpRegion, comb_direction, drape, scalp_roots};
+use hair_ssv::scalp::{DRAPE_CLEARANCE, ScalpRegion, comb_direction, lay_styled, scalp_roots};
 use hair_ssv::{Point, Real, Vector};
 use nalgebra::Rotation3;
 use std::path::Path;
@@ -35,17 +35,15 @@ pub fn from_strands(
     (scale, offset, points): (f32, [f32; 3], u32),
     file: &str,
 ) -> Result<Hairstyle, HairError> {
-    let (scale, points) = (&scale, &points);
     let off = Vector::from(offset);
     let mut out = Vec::with_capacity(strands.strand_count());
     for (strand, s) in strands.iter().enumerate() {
         let pts: Vec<Point> = s
             .iter()
-            .map(|p| Point::from(Vector::from(*p) * *scale + off))
+            .map(|p| Point::from(Vector::from(*p) * scale + off))
             .collect();
-        let pts = resample_polyline(&pts, *points as usize);
-        // The dynamics would reject it too, but could name neither the file nor the
-        // strand in it.
+        let pts = resample_polyline(&pts, points as usize);
+        // The dynamics would reject it too, but could not name the file and the strand.
         for (segment, w) in pts.windows(2).enumerate() {
             let length = (w[1] - w[0]).norm();
             if !(length.is_finite() && length > 0.0) {
@@ -54,8 +52,8 @@ pub fn from_strands(
                     strand,
                     segment,
                     length,
-                    scale: *scale,
-                    points: *points,
+                    scale,
+                    points,
                 });
             }
         }
@@ -77,8 +75,8 @@ pub fn frame_along(dir: &Vector) -> Rotation3<Real> {
         .unwrap_or_else(|| Rotation3::from_axis_angle(&Vector::x_axis(), std::f32::consts::PI))
 }
 
-/// Procedural hair: roots spread over the scalp region, each strand leaving the scalp combed
-/// down along the surface (a tangent line of a convex head stays outside it), then styled.
+/// Procedural hair: roots spread over the scalp region, each strand styled and laid combed over
+/// the head (`combed`), or grown straight out along the comb direction.
 pub fn procedural(p: &ProceduralHair, seed: u64) -> Result<Hairstyle, HairError> {
     let region = ScalpRegion {
         min_height: p.scalp_min_height,
@@ -98,13 +96,17 @@ pub fn procedural(p: &ProceduralHair, seed: u64) -> Result<Hairstyle, HairError>
         StyleSpec::Wavy { amplitude, period } => Style::Wavy { amplitude, period },
         StyleSpec::Curly { radius, pitch } => Style::Curly { radius, pitch },
     };
+    let n = p.points as usize;
+    let local = style_points(Point::origin(), &Rotation3::identity(), &style, n, p.length)?;
+    let clearance = DRAPE_CLEARANCE + 2.0 * p.strand_radius;
     let mut strands = Vec::with_capacity(roots.len());
     for (root, normal) in roots {
         let frame = frame_along(&comb_direction(&root, &normal));
-        let mut points = style_points(root, &frame, &style, p.points as usize, p.length)?;
-        if p.style == StyleSpec::Draped {
-            drape(&mut points, DRAPE_CLEARANCE + 2.0 * p.strand_radius);
-        }
+        let points = if p.combed || p.style == StyleSpec::Draped {
+            lay_styled(root, &frame, &local, clearance)
+        } else {
+            local.iter().map(|q| root + frame * q.coords).collect()
+        };
         strands.push(Strand {
             root,
             frame,

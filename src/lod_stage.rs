@@ -86,6 +86,7 @@ impl LodStage {
             return Ok(stage);
         }
         let mut lod = AdaptiveLod::new(h, &scene.adaptive);
+        lod.hold_groom(h, state)?;
         for n in 0..h.node_count() as u32 {
             state.set_active(SkeletonId(n), lod.front().is_active(n));
         }

@@ -166,13 +166,12 @@ impl Default for HairstyleSpec {
 
 impl Scene {
     /// Whether `Simulation::new` makes the groom its own rest: `sag_free` and a groom combed as
-    /// hair lies (a file, or the `Draped` style). The other procedural styles are grown off the
-    /// scalp, not combed over it: held as grown they would stand out for good, so they fall.
+    /// hair lies (a file, or `combed`); hair grown off the scalp would stand out for good.
     pub fn groom_is_its_rest(&self) -> bool {
         self.sag_free
             && match &self.hairstyle {
                 HairstyleSpec::File { .. } => true,
-                HairstyleSpec::Procedural(p) => p.style == StyleSpec::Draped,
+                HairstyleSpec::Procedural(p) => p.combed || p.style == StyleSpec::Draped,
             }
     }
 }
@@ -191,6 +190,8 @@ pub struct ProceduralHair {
     pub points: u32,
     /// Rest shape.
     pub style: StyleSpec,
+    /// Laid combed over the head and shoulders as a groom lies (`false`: grown out of the scalp).
+    pub combed: bool,
     /// Scalp: roots lie on the head above this height (m, head frame).
     pub scalp_min_height: f32,
     /// Roots lie behind this plane (m along +z, the face direction); keeps the face clear.
@@ -209,6 +210,7 @@ impl Default for ProceduralHair {
             length: 0.3,
             points: 12,
             style: StyleSpec::Straight,
+            combed: true,
             scalp_min_height: 0.0,
             scalp_max_forward: 0.06,
             parting_width: 0.0,
@@ -223,10 +225,7 @@ impl Default for ProceduralHair {
 pub enum StyleSpec {
     /// Straight.
     Straight,
-    /// Straight hair combed over the procedural head: each segment in turn slides over the
-    /// scalp (and the neck and shoulders) at a small clearance and otherwise turns toward
-    /// straight down, so the hair starts close to where it comes to rest instead of falling
-    /// onto the head in the first frames.
+    /// Straight and combed, whatever `combed` says (the name older scene files use).
     Draped,
     /// A planar wave.
     Wavy {

@@ -173,8 +173,8 @@ impl Simulation {
         let front_nodes = lod_stage::fixed_front(&hierarchy, policy);
         let loads = (scene.dynamics.gravity.into(), scene.dynamics.torque);
         let (rest, collision) = (scene.groom_is_its_rest().then_some(loads), &scene.collision);
-        let (state_ref, body_ref) = (&mut state, body.as_ref());
-        let (sections, _) = make_groom_rest(state_ref, body_ref, &front_nodes, collision, rest)?;
+        let (st, bd) = (&mut state, body.as_ref());
+        let (sections, _, support) = make_groom_rest(st, bd, &front_nodes, collision, rest)?;
         for s in 0..hierarchy.node_count() as u32 {
             state.set_active(SkeletonId(s), front_nodes.binary_search(&s).is_ok());
         }
@@ -209,7 +209,7 @@ impl Simulation {
             sections,
             localization: Localization::default(),
             hair_hair: HairHairStage::new(),
-            body_constraint: BodyConstraint::new(),
+            body_constraint: BodyConstraint::with_support(support),
             parts: Vec::new(),
             salon,
             node_radius,

@@ -315,11 +315,13 @@ fn dormant_hair_stays_frozen_until_a_tool_touches_it() {
         },
         event(4.5, Tool::Water, ToolAction::Release),
     ];
-    // Hair hanging free (no body to rest on) settles, so localization can freeze it.
+    // Hair hanging free (no body to rest on, grown off the scalp, not combed over a head that
+    // is not there) settles, so localization can freeze it.
     loaded.scene.body = BodySpec::None;
     loaded.scene.dynamics.damping = 5e-4;
     if let HairstyleSpec::Procedural(p) = &mut loaded.scene.hairstyle {
         p.style = hair::scene::StyleSpec::Straight;
+        p.combed = false;
     }
     let mut sim = Simulation::new(&loaded, LodPolicy::Fine).unwrap();
     steps_to(&mut sim, 3.5);

@@ -36,3 +36,38 @@ fn salon_at_rest_has_no_strand_standing_over_the_crown() {
         standing.join(", ")
     );
 }
+
+/// `salon` through its tools up to the dryer (5.5 s): wetted, cut across the back, sprayed
+/// and moussed. Made its rest with the springs alone holding the hair up, the groom's joints
+/// were bent by radians against gravity, and the strands the cut made light sprang into loops
+/// over the crown (rendered, frames 230-300). Resting on the head (`hair_collide::BodySupport`)
+/// no drawn strand rises more than 4 cm above the top of the head.
+#[test]
+fn after_the_cut_no_strand_springs_up_over_the_crown() {
+    let loaded = Scene::load("salon").expect("scene loads");
+    let mut sim = Simulation::new(&loaded, LodPolicy::Fine).expect("scene builds");
+    let mut worst = (0, f32::MIN);
+    for step in 0..330 {
+        sim.step().expect("step");
+        if step >= 150 && step % 10 == 0 {
+            let drawn = sim.frame_geometry();
+            for s in 0..drawn.strand_count() {
+                let top = drawn.strand(s).iter().map(|p| p.y).fold(f32::MIN, f32::max);
+                if top > worst.1 {
+                    worst = (step, top);
+                }
+            }
+        }
+    }
+    eprintln!(
+        "highest drawn point: {:.3} m over the top at step {}",
+        worst.1 - HEAD_TOP,
+        worst.0
+    );
+    assert!(
+        worst.1 < HEAD_TOP + 0.04,
+        "a drawn strand stands {:.3} m over the crown at step {}",
+        worst.1 - HEAD_TOP,
+        worst.0
+    );
+}

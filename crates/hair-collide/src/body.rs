@@ -1,7 +1,7 @@
 //! The hard body constraint: Kurihara, Anjyo & Thalmann §4's reaction constraint, made
 //! positional. After integration no node is inside the body beyond the stated tolerance.
 
-use crate::CollisionSettings;
+use crate::{BodySupport, CollisionSettings};
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
 use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
 use nalgebra::Isometry3;
@@ -41,12 +41,25 @@ pub struct BodyConstraint {
     constraints: Vec<VelocityConstraint>,
     /// A moving part's surface velocity (head frame) at each constraint's node.
     surface_velocities: Vec<Vector>,
+    /// The body's support of hair lying on it, when the groom was made its rest with it, and
+    /// the step it was last added to.
+    support: Option<BodySupport>,
+    supported_step: Option<u64>,
 }
 
 impl BodyConstraint {
     /// A constraint with empty buffers.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A constraint that also applies the body's pushes on the hair lying on it, when there
+    /// are any ([`crate::make_groom_rest`] solves them with the groom's rest).
+    pub fn with_support(support: Option<BodySupport>) -> Self {
+        Self {
+            support: support.filter(|s| !s.is_empty()),
+            ..Self::default()
+        }
     }
 
     /// The hard constraint (Kurihara et al. §4's reaction constraint, made positional): every
@@ -94,7 +107,14 @@ impl BodyConstraint {
         settings: &CollisionSettings,
     ) -> Result<BodyReport, DynamicsError> {
         let surface = Surface { body, motion: None };
-        self.apply_to(state, &surface, front, step, settings)
+        let report = self.apply_to(state, &surface, front, step, settings)?;
+        // The body's pushes on the hair lying on it: once a step, however many rounds run.
+        if let Some(support) = &mut self.support
+            && self.supported_step.replace(step) != Some(step)
+        {
+            support.apply(state, body, settings)?;
+        }
+        Ok(report)
     }
 
     /// [`BodyConstraint::apply`] for a body part that moves rigidly: `body` is in the part's

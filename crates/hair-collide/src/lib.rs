@@ -55,6 +55,7 @@ mod pairs;
 mod part;
 mod rest;
 mod settings;
+mod support;
 mod volume;
 
 pub use body::{BodyConstraint, BodyReport, PartMotion};
@@ -66,4 +67,5 @@ pub use pairs::{HairPairs, PairsReport, PushCombine, Sections};
 pub use part::BodyPart;
 pub use rest::{GroomRestReport, make_groom_rest};
 pub use settings::{CollisionSettings, SettingsError};
+pub use support::{BodySupport, SUPPORT_REACH};
 pub use volume::{HairVolume, Lattice, VolumeReport};

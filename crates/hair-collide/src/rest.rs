@@ -13,7 +13,9 @@
 //! built-in scenes drifted more (`wind` 3.1 mm against 0.17 mm without hair-hair), as the
 //! constraint holds a node only after it has sunk in.
 
-use crate::{BodyConstraint, CollideError, CollisionSettings, HairHairModel, Sections};
+use crate::{
+    BodyConstraint, BodySupport, CollideError, CollisionSettings, HairHairModel, Sections,
+};
 use hair_dynamics::{Environment, StrandState, TorqueModel};
 use hair_grid::{Grid, GridConfig, PairSet};
 use hair_ssv::{Lss, MeshBody, Real, Ssv, Vector};
@@ -27,6 +29,8 @@ pub struct GroomRestReport {
     pub capped: usize,
     /// Joints whose rest angles were solved.
     pub joints: usize,
+    /// Nodes lying on the body that it pushes at rest ([`BodySupport`]).
+    pub carried: usize,
 }
 
 /// A capped radius keeps this share of half the groom's clearance, so that a pair at rest is
@@ -46,14 +50,14 @@ pub fn make_groom_rest(
     front: &[u32],
     settings: &CollisionSettings,
     loads: Option<(Vector, TorqueModel)>,
-) -> Result<(Sections, GroomRestReport), CollideError> {
+) -> Result<(Sections, GroomRestReport, Option<BodySupport>), CollideError> {
     let mut report = GroomRestReport::default();
     let mut sections = Sections::default();
     let Some((gravity, torque)) = loads else {
-        return Ok((sections, report));
+        return Ok((sections, report, None));
     };
     if let Some(body) = body {
-        let all: Vec<u32> = (0..state.skeleton_count() as u32).collect();
+        let all = all_skeletons(state);
         // After the depenetration ramp: a node inside goes straight out.
         let step = u64::from(settings.depenetration_steps);
         let mut constraint = BodyConstraint::new();
@@ -68,8 +72,24 @@ pub fn make_groom_rest(
         gravity,
         ..Environment::default()
     };
-    report.joints = state.make_rest_equilibrium(&env, torque)?;
-    Ok((sections, report))
+    // Hair lying on the body rests on it (`crate::support`): the body's pushes enter the
+    // solve, and every step after it applies them.
+    let (mut support, lying) = match body {
+        Some(body) => BodySupport::lying(state, body, settings),
+        None => (BodySupport::default(), Vec::new()),
+    };
+    let mut pushes = Vec::new();
+    report.joints = state.make_rest_equilibrium_on(&env, torque, &lying, &mut pushes)?;
+    support.set_pushes(&pushes);
+    report.carried = support.len();
+    if let Some(body) = body {
+        support.apply(state, body, settings)?;
+    }
+    Ok((sections, report, Some(support)))
+}
+
+fn all_skeletons(state: &StrandState) -> Vec<u32> {
+    (0..state.skeleton_count() as u32).collect()
 }
 
 /// Sets `sections.radius_cap` so that no two crossing sections of `front` overlap as groomed;

@@ -398,6 +398,11 @@ impl AdaptiveLod {
         self.last
     }
 
+    /// Takes the angles in `state` as every node's groom ([`LodState::hold_groom`]).
+    pub fn hold_groom(&mut self, h: &Hierarchy, state: &StrandState) -> Result<(), LodError> {
+        self.lod.hold_groom(h, state)
+    }
+
     /// The carried per-node state (water, stiffness and the other inherited properties).
     pub fn lod_state(&self) -> &LodState {
         &self.lod

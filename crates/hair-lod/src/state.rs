@@ -49,6 +49,13 @@ pub struct LodState {
     pub d_theta: Vec<Real>,
     /// Bend about the parent frame's y axis, minus the rest value (rad).
     pub d_phi: Vec<Real>,
+    /// The groom's theta minus the rest value, where the rest was solved to hold the groom
+    /// still under gravity ([`LodState::hold_groom`]); 0 otherwise. Deviations are measured
+    /// from the groom, so a child split from its parent takes its own groom plus the parent's
+    /// motion, not its rest (which a sag-free rest bends against gravity) plus the parent's sag.
+    pub sag_theta: Vec<Real>,
+    /// The groom's phi minus the rest value (rad); see `sag_theta`.
+    pub sag_phi: Vec<Real>,
     /// Angular velocity of theta (rad/s).
     pub omega_theta: Vec<Real>,
     /// Angular velocity of phi (rad/s).
@@ -74,6 +81,8 @@ impl LodState {
         Self {
             d_theta: vec![0.0; n],
             d_phi: vec![0.0; n],
+            sag_theta: vec![0.0; n],
+            sag_phi: vec![0.0; n],
             omega_theta: vec![0.0; n],
             omega_phi: vec![0.0; n],
             wetness: vec![0.0; n],
@@ -92,6 +101,8 @@ impl LodState {
         if [
             self.d_theta.len(),
             self.d_phi.len(),
+            self.sag_theta.len(),
+            self.sag_phi.len(),
             self.omega_theta.len(),
             self.omega_phi.len(),
             self.wetness.len(),
@@ -123,8 +134,22 @@ impl LodState {
         w
     }
 
+    /// Takes every node's angles in `strands` (skeleton `n` for node `n`, as built from
+    /// [`Hierarchy::skeleton_desc`]) as its groom: `sag_theta` and `sag_phi` become the angles
+    /// minus the rest angles. Call it once the rest is solved and before any motion.
+    pub fn hold_groom(&mut self, h: &Hierarchy, strands: &StrandState) -> Result<(), LodError> {
+        for node in 0..h.node_count() as u32 {
+            let (s, range) = self.matching(h, node, strands, SkeletonId(node))?;
+            for (j, i) in range.enumerate() {
+                self.sag_theta[s + j] = strands.theta()[i] - strands.rest_theta()[i];
+                self.sag_phi[s + j] = strands.phi()[i] - strands.rest_phi()[i];
+            }
+        }
+        Ok(())
+    }
+
     /// Writes a node's motion into a `hair-dynamics` skeleton made from
-    /// [`Hierarchy::skeleton_desc`] for the same node: angles are the skeleton's rest angles plus
+    /// [`Hierarchy::skeleton_desc`] for the same node: angles are the skeleton's rest angles plus the sag and
     /// the deviations, angular velocities are copied, and positions are refreshed.
     pub fn write_motion(
         &self,
@@ -137,8 +162,8 @@ impl LodState {
         let n = range.len();
         for j in 0..n {
             let i = range.start + j;
-            let theta = strands.rest_theta()[i] + self.d_theta[s + j];
-            let phi = strands.rest_phi()[i] + self.d_phi[s + j];
+            let theta = (strands.rest_theta()[i] + self.sag_theta[s + j]) + self.d_theta[s + j];
+            let phi = (strands.rest_phi()[i] + self.sag_phi[s + j]) + self.d_phi[s + j];
             strands.theta_mut()[i] = theta;
             strands.phi_mut()[i] = phi;
             strands.omega_theta_mut()[i] = self.omega_theta[s + j];
@@ -160,8 +185,9 @@ impl LodState {
         let (s, range) = self.matching(h, node, strands, id)?;
         for j in 0..range.len() {
             let i = range.start + j;
-            self.d_theta[s + j] = strands.theta()[i] - strands.rest_theta()[i];
-            self.d_phi[s + j] = strands.phi()[i] - strands.rest_phi()[i];
+            self.d_theta[s + j] =
+                strands.theta()[i] - (strands.rest_theta()[i] + self.sag_theta[s + j]);
+            self.d_phi[s + j] = strands.phi()[i] - (strands.rest_phi()[i] + self.sag_phi[s + j]);
             self.omega_theta[s + j] = strands.omega_theta()[i];
             self.omega_phi[s + j] = strands.omega_phi()[i];
         }

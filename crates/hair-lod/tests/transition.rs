@@ -430,6 +430,55 @@ fn motion_crosses_to_hair_dynamics_and_back() {
     }
 }
 
+/// A groom made its own rest holds every skeleton at its groomed angles with rest angles bent
+/// against gravity, by a different sag on each node. A split writes each child at its own
+/// groom plus the parent's motion (none here), not at its rest plus the parent's sag: without
+/// `hold_groom` the children would jump by the difference of the sags.
+#[test]
+fn a_split_keeps_each_childs_groom_when_the_rest_holds_it_up() {
+    let (_, h) = small_head(200, 4);
+    let mut strands = StrandState::new();
+    for v in 0..h.node_count() as u32 {
+        strands
+            .add_skeleton(&h.skeleton_desc(v, Material::default()))
+            .unwrap();
+    }
+    let groom = strands.theta().to_vec();
+    for v in 0..h.node_count() as u32 {
+        let nodes = strands.nodes(hair_dynamics::SkeletonId(v));
+        for (j, i) in nodes.enumerate() {
+            strands.rest_theta_mut()[i] -= 0.01 * (1 + v % 7) as f32 * j as f32;
+        }
+    }
+    let v = (0..h.node_count() as u32)
+        .find(|&v| h.children(v).len() > 1)
+        .expect("a node with children");
+    let (root, kids) = (h.tree_root(h.tree_of(v)), h.children(v));
+    let split_from = |held: bool, strands: &mut StrandState| {
+        let (mut front, mut lod) = (Front::coarsest(&h), LodState::new(&h));
+        if held {
+            lod.hold_groom(&h, strands).unwrap();
+        }
+        let id = hair_dynamics::SkeletonId(root);
+        lod.read_motion(&h, root, strands, id).unwrap();
+        split_down_to(&h, &mut front, &mut lod, v);
+        split(&h, &mut front, &mut lod, v).unwrap();
+        let mut worst: f32 = 0.0;
+        for c in kids.clone() {
+            let id = hair_dynamics::SkeletonId(c);
+            lod.write_motion(&h, c, strands, id).unwrap();
+            for i in strands.nodes(id) {
+                worst = worst.max((strands.theta()[i] - groom[i]).abs());
+            }
+        }
+        worst
+    };
+    let held = split_from(true, &mut strands.clone());
+    let unheld = split_from(false, &mut strands.clone());
+    assert!(held < 1e-6, "children off their groom by {held} rad");
+    assert!(unheld > 0.01, "without hold_groom only {unheld} rad off");
+}
+
 #[test]
 fn operations_on_the_wrong_nodes_are_errors() {
     let (_, h) = small_head(200, 5);

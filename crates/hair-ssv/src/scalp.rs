@@ -4,6 +4,7 @@
 
 use crate::head::{HEAD, NECK_RADIUS, SHOULDERS};
 use crate::{Point, Real, Vector};
+use nalgebra::Rotation3;
 use rand_xoshiro::SplitMix64;
 use rand_xoshiro::rand_core::{Rng, SeedableRng};
 
@@ -71,6 +72,57 @@ pub fn drape(points: &mut [Point], clearance: Real) {
 
 /// Length of hair over which a free draped strand turns fully toward straight down (m).
 const DRAPE_TURN: Real = 0.05;
+
+/// Lays a styled strand combed over the procedural head as a groom lies. `local` is the style
+/// in its root frame (root at the origin, the strand along +z, its wave or curl across x and
+/// y). The centreline (each point's z, along `frame`'s z axis from `root`) is laid by [`drape`]
+/// with `clearance` plus the style's reach toward the head; each point's offset is then carried
+/// in a frame that follows the laid centreline: x across the strand and along the surface, y
+/// away from it. So waves lie flat along the head and curls wind clear of it.
+pub fn lay_styled(
+    root: Point,
+    frame: &Rotation3<Real>,
+    local: &[Point],
+    clearance: Real,
+) -> Vec<Point> {
+    let mut centre: Vec<Point> = local
+        .iter()
+        .map(|q| root + frame * Vector::new(0.0, 0.0, q.z))
+        .collect();
+    // A curl reaches toward the head by its y; a wave across a curved head by its sagitta.
+    let (mut reach_y, mut across) = (0.0 as Real, 0.0 as Real);
+    for q in local {
+        reach_y = reach_y.max(-q.y);
+        across = across.max(q.x.abs());
+    }
+    let head_radius = SCALP.iter().copied().fold(Real::INFINITY, Real::min);
+    drape(
+        &mut centre,
+        clearance + reach_y + across * across / head_radius,
+    );
+    let n = centre.len();
+    let mut side = frame * Vector::x();
+    let mut out = Vec::with_capacity(n);
+    for (i, q) in local.iter().enumerate() {
+        let c = centre[i];
+        let tangent = (centre[(i + 1).min(n - 1)] - centre[i.saturating_sub(1)])
+            .try_normalize(1e-9)
+            .unwrap_or_else(|| frame * Vector::z());
+        // Away from the head, or from the neck's axis below it.
+        let away =
+            if c.y > SHOULDERS.0[1] + SHOULDERS.1[1] && c.y < 0.0 && c.x.hypot(c.z) < SCALP[0] {
+                Vector::new(c.x, 0.0, c.z)
+            } else {
+                c.coords
+            };
+        if let Some(s) = tangent.cross(&away).try_normalize(1e-6) {
+            side = s;
+        }
+        let up = side.cross(&tangent);
+        out.push(c + side * q.x + up * q.y);
+    }
+    out
+}
 
 /// Point on the scalp ellipsoid at spherical angles (polar from +y, azimuth about +y from +x).
 pub fn scalp_point(polar: Real, azimuth: Real) -> (Point, Vector) {
