@@ -35,7 +35,8 @@
 //! control vertices (in the head frame) binned by their direction from the centre of the hair's
 //! roots, each bin's thickness the largest exact signed distance of its vertices from the body's
 //! surface, averaged over the bins that hold hair, then over the samples: a layer that collapses
-//! onto the head or puffs up shows there.
+//! onto the head or puffs up shows there (on 512 of the rendered strands at most,
+//! [`measure::THICKNESS_STRANDS`]).
 //!
 //! Hair in wind is chaotic: two runs that differ by rounding drift apart by centimetres within a
 //! second. So the study also runs the reference with gravity changed by one part in a million
@@ -50,7 +51,7 @@ pub mod measure;
 use anyhow::{Context, Result};
 use hair::scene::{BodySpec, CollisionMethod};
 use hair::{LodPolicy, Scene, Simulation};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `hair study`.
@@ -67,6 +68,9 @@ pub struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Only redraw study.png from the study.json in the output directory.
+    #[arg(long)]
+    pub replot: bool,
 }
 
 /// Factors on the scene's `adaptive` distances (`distance_finest` and `distance_coarsest`) of the
@@ -81,7 +85,7 @@ pub const PAIR_SEARCH_INTERVALS: [u32; 2] = [2, 4];
 pub const GRAVITY_PERTURBATION: f32 = 1e-6;
 
 /// One configuration's measurements.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct PolicyResult {
     /// `policy` or `policy+method`.
     pub name: String,
@@ -127,7 +131,7 @@ pub struct PolicyResult {
 }
 
 /// What `study.json` holds.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, Deserialize)]
 pub struct Study {
     /// Scene name.
     pub scene: String,
@@ -228,7 +232,6 @@ fn run_one(
     let mut sim = Simulation::new(&loaded, policy)
         .with_context(|| format!("building {} with {}", policy.name(), method_name(method)))?;
     let mut sampler = measure::Sampler::new(&loaded.scene, &sim)?;
-    let mut ms_measuring = 0.0;
     let ramp = u64::from(loaded.scene.collision.depenetration_steps);
     let (mut total, mut dynamics, mut collision, mut skeletons, mut dormant, mut steps) =
         (0.0, 0.0, 0.0, 0.0, 0.0, 0.0f64);
@@ -254,9 +257,7 @@ fn run_one(
         snapshot(&sim, &mut snap);
         // Every `SAMPLE_EVERY`th frame, and the last (a short run gets one sample).
         if (frame + 1) % measure::SAMPLE_EVERY == 0 || frame + 1 == frames {
-            let clock = std::time::Instant::now();
-            sampler.sample(&sim, &snap)?;
-            ms_measuring += clock.elapsed().as_secs_f64() * 1e3;
+            sampler.sample(&sim)?;
         }
         match reference {
             Some(r) => {
@@ -303,6 +304,13 @@ fn run_one(
         name.push_str("+perturbed");
     }
     let samples = f64::from(sampler.samples.max(1));
+    let [setup, overlap, thickness] = sampler.ms.map(|ms| ms * 1e-3);
+    eprintln!(
+        "  {name}: {:.1} ms a frame; measuring {:.1} s (radius caps {setup:.1} s, overlap \
+         {overlap:.1} s, thickness {thickness:.1} s)",
+        total / f64::from(frames.max(1)),
+        setup + overlap + thickness,
+    );
     Ok(Run {
         result: PolicyResult {
             name,
@@ -333,7 +341,7 @@ fn run_one(
             overlap_pairs: sampler.overlap.pairs as f64 / samples,
             thickness_mm: sampler.thickness_sum / samples * 1e3,
         },
-        ms_measuring,
+        ms_measuring: sampler.ms.iter().sum(),
         frames: kept,
         seen: kept_seen,
         strands: sim.render_geometry().strand_count(),
@@ -351,6 +359,14 @@ fn exact_method(scene: &Scene) -> CollisionMethod {
 
 /// Runs the command.
 pub fn run(args: Args) -> Result<()> {
+    if args.replot {
+        let path = args.out.join("study.json");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("reading {}", path.display()))?;
+        let study: Study =
+            serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+        return chart::chart(&args.out.join("study.png"), &study);
+    }
     let loaded = Scene::load(&args.scene)?;
     let frames = args.frames.unwrap_or(loaded.scene.frames).max(1);
     let threads = args
@@ -444,7 +460,10 @@ pub fn run(args: Args) -> Result<()> {
                     String::new()
                 },
                 if c.pair_interval > 0 {
-                    format!(", pairs searched every {} steps", c.pair_interval)
+                    match c.pair_interval {
+                        1 => ", pairs searched every step".to_string(),
+                        n => format!(", pairs searched every {n} steps"),
+                    }
                 } else {
                     format!(", {}", loaded.scene.collision.hair_hair.name())
                 },
@@ -547,6 +566,7 @@ mod tests {
             out: dir.clone(),
             frames: None,
             threads: Some(2),
+            replot: false,
         })
         .unwrap();
         let study: serde_json::Value =
@@ -632,6 +652,17 @@ mod tests {
             .unwrap();
         assert_eq!(study["chaos_floor_rms_mm"], perturbed["rms_error_mm"]);
         assert!(dir.join("study.csv").exists() && dir.join("study.png").exists());
+        // The chart redrawn from study.json alone.
+        std::fs::remove_file(dir.join("study.png")).unwrap();
+        run(Args {
+            scene: "no scene is loaded".into(),
+            out: dir.clone(),
+            frames: None,
+            threads: None,
+            replot: true,
+        })
+        .unwrap();
+        assert!(dir.join("study.png").exists());
         std::fs::remove_dir_all(&dir).ok();
     }
 }
