@@ -173,7 +173,7 @@ impl Sampler {
         // The simulation made this state its rest already: again, the groom moves no further
         // and only the caps are kept.
         let mut groom = sim.state().clone();
-        let (sections, _) = hair::collide::make_groom_rest(
+        let (sections, _, _) = hair::collide::make_groom_rest(
             &mut groom,
             sim.body(),
             sim.front_nodes(),
