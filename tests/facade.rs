@@ -89,7 +89,8 @@ fn maps_asked_on_a_body_without_tables_is_refused_at_load() {
 }
 
 /// Draped hair keeps the styled segment lengths, and every point past the root lies outside
-/// the head body by at least a strand radius (straight hair from the same roots goes in).
+/// the head body by at least a strand radius (straight hair grown out from the same roots goes
+/// in); so does every point of combed wavy and curly hair.
 #[test]
 fn draped_hair_lies_outside_the_head_with_its_lengths() {
     let body = body_from_spec(&BodySpec::Head { resolution: 64 }, Path::new("."))
@@ -104,7 +105,11 @@ fn draped_hair_lies_outside_the_head_with_its_lengths() {
         ..ProceduralHair::default()
     };
     let draped = procedural(&spec(StyleSpec::Draped), 5).unwrap();
-    let straight = procedural(&spec(StyleSpec::Straight), 5).unwrap();
+    let grown = ProceduralHair {
+        combed: false,
+        ..spec(StyleSpec::Straight)
+    };
+    let straight = procedural(&grown, 5).unwrap();
     let radius = ProceduralHair::default().strand_radius;
     let mut straight_inside = 0;
     for (d, s) in draped.strands.iter().zip(&straight.strands) {
@@ -129,6 +134,25 @@ fn draped_hair_lies_outside_the_head_with_its_lengths() {
         straight_inside > 0,
         "the straight hair never enters the body"
     );
+    let wavy = StyleSpec::Wavy {
+        amplitude: 0.012,
+        period: 0.1,
+    };
+    let curly = StyleSpec::Curly {
+        radius: 0.01,
+        pitch: 0.04,
+    };
+    for style in [wavy, curly] {
+        for strand in procedural(&spec(style), 5).unwrap().strands {
+            for p in &strand.points[1..] {
+                let (dist, _, _) = body.signed_distance(p).unwrap();
+                assert!(
+                    dist > radius,
+                    "{style:?}: point {p:?} at {dist} m from the body"
+                );
+            }
+        }
+    }
 }
 
 /// A camera in front of the face sees a point between it and the face, not one behind the

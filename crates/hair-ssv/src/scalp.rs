@@ -32,23 +32,7 @@ pub const DRAPE_CLEARANCE: Real = 0.004;
 /// shoulders is moved out onto that margin along the part's radius, then back to the segment's
 /// length (three times).
 pub fn drape(points: &mut [Point], clearance: Real) {
-    let out_of = |q: Point| -> Point {
-        let mut q = q;
-        for (c, r) in [([0.0, 0.0, 0.0], SCALP), SHOULDERS] {
-            let c = Vector::from(c);
-            let d = q.coords - c;
-            let f: Real = (0..3).map(|k| (d[k] / (r[k] + clearance)).powi(2)).sum();
-            if f < 1.0 && f > 0.0 {
-                q = Point::from(c + d / f.sqrt());
-            }
-        }
-        let (rxz, reach) = (q.x.hypot(q.z), NECK_RADIUS + clearance);
-        if rxz < reach && rxz > 0.0 && q.y < 0.0 && q.y > SHOULDERS.0[1] {
-            let s = reach / rxz;
-            q = Point::new(q.x * s, q.y, q.z * s);
-        }
-        q
-    };
+    let out_of = |q: Point| out_of_body(q, clearance);
     let styled: Vec<Vector> = points.windows(2).map(|w| w[1] - w[0]).collect();
     let mut dir: Option<Vector> = None;
     for (k, step) in styled.iter().enumerate() {
@@ -68,6 +52,26 @@ pub fn drape(points: &mut [Point], clearance: Real) {
         dir = (q - from).try_normalize(1e-9);
         points[k + 1] = q;
     }
+}
+
+/// `q` moved out onto the margin `clearance` around the scalp, the neck and the shoulders
+/// along the part's radius, where it lies within it.
+fn out_of_body(q: Point, clearance: Real) -> Point {
+    let mut q = q;
+    for (c, r) in [([0.0, 0.0, 0.0], SCALP), SHOULDERS] {
+        let c = Vector::from(c);
+        let d = q.coords - c;
+        let f: Real = (0..3).map(|k| (d[k] / (r[k] + clearance)).powi(2)).sum();
+        if f < 1.0 && f > 0.0 {
+            q = Point::from(c + d / f.sqrt());
+        }
+    }
+    let (rxz, reach) = (q.x.hypot(q.z), NECK_RADIUS + clearance);
+    if rxz < reach && rxz > 0.0 && q.y < 0.0 && q.y > SHOULDERS.0[1] {
+        let s = reach / rxz;
+        q = Point::new(q.x * s, q.y, q.z * s);
+    }
+    q
 }
 
 /// Length of hair over which a free draped strand turns fully toward straight down (m).
@@ -119,7 +123,12 @@ pub fn lay_styled(
             side = s;
         }
         let up = side.cross(&tangent);
-        out.push(c + side * q.x + up * q.y);
+        // Across a curved surface a wave dips toward it: kept out at the clearance.
+        out.push(if q.x == 0.0 && q.y == 0.0 {
+            c
+        } else {
+            out_of_body(c + side * q.x + up * q.y, clearance)
+        });
     }
     out
 }
