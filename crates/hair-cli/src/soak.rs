@@ -19,23 +19,25 @@ use hair::{LodPolicy, Scene, Simulation, Tool};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Arguments of `hair soak`.
-///
-/// What `allocations_after_warmup` counts: heap allocations (alloc, alloc_zeroed, realloc, on
-/// any thread) made inside `Simulation::step` calls of the replay, the warm-up being the live
-/// pass. The live pass fires the random events and its steps grow the buffers (grid cells,
-/// tool hits, bonds, cut pieces) to the session's high-water marks, which the project allows;
-/// the replay, after `Simulation::reset`, runs the same steps (same state hash at every step,
-/// checked) and must take no memory at all. Firing an event (`push_tool_event`,
-/// `push_camera_key`) happens outside any step and is not counted: it appends to the script,
-/// whose `Vec` grows now and then (a path is a `Vec` of its own). The events a step applies (a
-/// snip, a grab, spray bonds) run inside it and are counted, except in the steps where a snip
-/// cuts hair: each piece cut off becomes a new skeleton built from temporary vectors (five
-/// allocations a piece in `StrandState::cut`), so those steps are counted apart
-/// (`allocations_in_cut_steps`). The live pass's own allocations
-/// inside steps after its first `--warmup` steps are reported too (`live_allocations`): growth
-/// to new high-water marks as the random tools reach further.
+/// What `allocations_after_warmup` counts, printed by `hair soak --help`.
+const ALLOCATIONS_HELP: &str = "\
+    What allocations_after_warmup counts: heap allocations (alloc, alloc_zeroed, realloc, on \
+    any thread) made inside `Simulation::step` calls of the replay, the warm-up being the live pass. \
+    The live pass fires the random events and its steps grow the buffers (grid cells, tool hits, \
+    bonds, cut pieces) to the session's high-water marks, which the project allows; the replay, \
+    after `Simulation::reset`, runs the same steps (same state hash at every step, checked) and \
+    must take no memory at all. Firing an event (`push_tool_event`, `push_camera_key`) happens \
+    outside any step and is not counted: it appends to the script, whose `Vec` grows now and \
+    then (a path is a `Vec` of its own). The events a step applies (a snip, a grab, spray bonds) \
+    run inside it and are counted, except in the steps where a snip cuts hair: each piece cut \
+    off becomes a new skeleton built from temporary vectors (five allocations a piece in \
+    `StrandState::cut`), so those steps are counted apart (`allocations_in_cut_steps`). The live \
+    pass's own allocations inside steps after its first `--warmup` steps are reported too \
+    (`live_allocations`): growth to new high-water marks as the random tools reach further.";
+
+/// Arguments of `hair soak` (`ALLOCATIONS_HELP` says what is counted as an allocation).
 #[derive(Debug, clap::Args)]
+#[command(after_long_help = ALLOCATIONS_HELP)]
 pub struct Args {
     /// A built-in scene name (`hair scenes` lists them) or a scene file (.ron). Its own tool
     /// script is dropped: the soak's random events replace it.
