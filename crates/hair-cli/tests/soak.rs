@@ -87,7 +87,7 @@ fn the_seed_decides_the_session() {
 /// The long soak: `cargo test --release -p hair-cli --test soak -- --ignored` (figures in
 /// `docs/perf/soak.md`).
 #[test]
-#[ignore = "100,000 steps: about an hour in release"]
+#[ignore = "100,000 steps: about 40 minutes in release on two busy cores"]
 fn salon_soak_of_100000_steps() {
     let (report, passed) = soak(100_000, 1);
     check(&report, passed, 100_000);
