@@ -12,6 +12,7 @@ mod hierarchy;
 mod render_check;
 mod run;
 mod scenes;
+mod soak;
 mod stability;
 mod strand_setup;
 mod study;
@@ -51,6 +52,9 @@ enum Command {
     Study(study::Args),
     /// The interactive salon window: tools on the hair, recorded and replayable.
     View(view::Args),
+    /// Soak test: random salon tool events of every kind while the scene runs; checks finite
+    /// state, body penetration, energy and allocations after a warm-up.
+    Soak(soak::Args),
 }
 
 /// The grid kernel `HAIR_GRID_KERNEL` asks for (`avx512`, `avx2`, `baseline` or `auto`; unset:
@@ -94,6 +98,7 @@ fn main() -> std::process::ExitCode {
         Command::RenderCheck(args) => render_check::run(args),
         Command::Study(args) => study::run(args),
         Command::View(args) => view::run(args),
+        Command::Soak(args) => soak::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

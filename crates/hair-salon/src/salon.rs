@@ -170,17 +170,25 @@ impl Salon {
         s
     }
 
-    /// Back to the start of the script over `state` (the initial state).
+    /// Back to the start of the script over `state` (the initial state). The per-node arrays
+    /// are refilled in the buffers already held, so that the steps of a replay take no memory
+    /// even where cuts grew them (`hair soak` replays a whole session after a reset).
     pub fn reset(&mut self, state: &StrandState, h: &Hierarchy, skeleton_radius: &[Real]) {
         let n = state.node_count();
         self.cursor = 0;
         self.pressed = [None; 6];
         self.volumes.clear();
-        self.stiffness = vec![1.0; n];
-        self.thickness = vec![1.0; n];
-        self.base_k_theta = state.k_theta().to_vec();
-        self.base_k_phi = state.k_phi().to_vec();
-        self.base_radius = state.radius().to_vec();
+        let refill = |v: &mut Vec<Real>, from: &[Real]| {
+            v.clear();
+            v.extend_from_slice(from);
+        };
+        self.stiffness.clear();
+        self.stiffness.resize(n, 1.0);
+        self.thickness.clear();
+        self.thickness.resize(n, 1.0);
+        refill(&mut self.base_k_theta, state.k_theta());
+        refill(&mut self.base_k_phi, state.k_phi());
+        refill(&mut self.base_radius, state.radius());
         for (s, &r) in skeleton_radius.iter().enumerate() {
             if s < state.skeleton_count() {
                 for i in state.nodes(SkeletonId(s as u32)) {
@@ -189,13 +197,13 @@ impl Salon {
             }
         }
         let ca = self.script.settings.curl_angle.max(1e-6);
-        self.curl = (0..n)
-            .map(|i| {
-                let b = (state.rest_theta()[i].powi(2) + state.rest_phi()[i].powi(2)).sqrt();
-                (b / ca).min(1.0)
-            })
-            .collect();
-        self.mark = vec![false; h.node_count()];
+        self.curl.clear();
+        self.curl.extend((0..n).map(|i| {
+            let b = (state.rest_theta()[i].powi(2) + state.rest_phi()[i].powi(2)).sqrt();
+            (b / ca).min(1.0)
+        }));
+        self.mark.clear();
+        self.mark.resize(h.node_count(), false);
         self.fallen.clear();
         self.grabs.clear();
         self.forced.clear();
