@@ -154,3 +154,38 @@ fn golden_runs_rms_from_sag() {
         );
     }
 }
+
+/// The rest angles' bend from the groom (rad, over every skeleton of the hierarchy, mean and
+/// largest) as built, with the body's pushes, and re-solved with the springs alone: the
+/// figures of `docs/dynamics.md`, "The body carries the hair lying on it". Run with
+/// `--ignored --nocapture`.
+#[test]
+#[ignore]
+fn rest_bend_from_the_groom() {
+    let bend = |state: &hair::dynamics::StrandState| {
+        let b: Vec<f32> = (0..state.node_count())
+            .map(|i| {
+                (state.rest_theta()[i] - state.theta()[i])
+                    .hypot(state.rest_phi()[i] - state.phi()[i])
+            })
+            .collect();
+        let mean = b.iter().sum::<f32>() / b.len().max(1) as f32;
+        (mean, b.iter().copied().fold(0.0, f32::max))
+    };
+    for scene in ["salon", "wind", "shake", "wardlin"] {
+        let loaded = Scene::load(scene).expect("scene loads");
+        let sim = Simulation::new(&loaded, loaded.scene.lod).expect("scene builds");
+        let mut alone = sim.state().clone();
+        let env = hair::dynamics::Environment {
+            gravity: loaded.scene.dynamics.gravity.into(),
+            ..Default::default()
+        };
+        alone
+            .make_rest_equilibrium(&env, loaded.scene.dynamics.torque)
+            .expect("solve");
+        let ((m, x), (ma, xa)) = (bend(sim.state()), bend(&alone));
+        eprintln!(
+            "{scene}: with the body {m:.2} rad mean, {x:.1} max; springs alone {ma:.2}, {xa:.1}"
+        );
+    }
+}

@@ -291,28 +291,38 @@ mod tests {
     use crate::*;
     use nalgebra::Rotation3;
 
+    /// One strand of `style` whose root sits at the origin and sends the hair along +x
+    /// (horizontal, where gravity bends it most).
+    fn sideways_strand(
+        style: &Style,
+        n: usize,
+        length: Real,
+    ) -> Result<StrandState, DynamicsError> {
+        let mut state = StrandState::new();
+        let frame = Rotation3::rotation_between(&Vector::z(), &Vector::x())
+            .unwrap_or_else(Rotation3::identity);
+        let points = style_points(Point::origin(), &frame, style, n, length)?;
+        state.add_skeleton(&SkeletonDesc {
+            root: Root::Attached {
+                position: Point::origin(),
+                frame,
+            },
+            points,
+            material: Material::default(),
+        })?;
+        Ok(state)
+    }
+
     /// A strand leaving its root sideways sags under gravity with its combed rest angles, and
     /// stays put (to a tenth of a millimetre over a second) once its rest angles are solved.
     #[test]
     fn a_sag_free_strand_stays_where_it_was_groomed() {
         let build = |solve: bool| -> Result<Real, DynamicsError> {
-            let mut state = StrandState::new();
-            // Hair leaves the root along +x (horizontal): gravity bends it most.
-            let frame = Rotation3::rotation_between(&Vector::z(), &Vector::x())
-                .unwrap_or_else(Rotation3::identity);
             let style = Style::Wavy {
                 amplitude: 0.01,
                 period: 0.1,
             };
-            let points = style_points(Point::origin(), &frame, &style, 12, 0.25)?;
-            state.add_skeleton(&SkeletonDesc {
-                root: Root::Attached {
-                    position: Point::origin(),
-                    frame,
-                },
-                points,
-                material: Material::default(),
-            })?;
+            let mut state = sideways_strand(&style, 12, 0.25)?;
             let env = Environment::default();
             let settings = StepSettings::default();
             if solve {
@@ -346,21 +356,7 @@ mod tests {
     /// the groom's; without the floor the springs alone hold it, bent by radians.
     #[test]
     fn a_strand_lying_on_a_floor_rests_on_it() -> Result<(), DynamicsError> {
-        let build = || -> Result<StrandState, DynamicsError> {
-            let mut state = StrandState::new();
-            let frame = Rotation3::rotation_between(&Vector::z(), &Vector::x())
-                .unwrap_or_else(Rotation3::identity);
-            let points = style_points(Point::origin(), &frame, &Style::Straight, 10, 0.3)?;
-            state.add_skeleton(&SkeletonDesc {
-                root: Root::Attached {
-                    position: Point::origin(),
-                    frame,
-                },
-                points,
-                material: Material::default(),
-            })?;
-            Ok(state)
-        };
+        let build = || sideways_strand(&Style::Straight, 10, 0.3);
         let offset = |s: &StrandState| {
             (0..s.node_count())
                 .map(|i| (s.rest_theta()[i] - s.theta()[i]).hypot(s.rest_phi()[i] - s.phi()[i]))
