@@ -514,9 +514,6 @@ impl Simulation {
         self.time += self.settings.dt;
         self.steps += 1;
         self.head.advance();
-        if self.scene.localization {
-            self.localization.record_positions(&self.state);
-        }
         self.draw_step(stats.step)?;
         stats.ms_render_geometry = clock.lap();
         stats.render_vertices = self.drawn.output().vertex_count();

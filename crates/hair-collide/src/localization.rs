@@ -12,8 +12,11 @@ use hair_ssv::{Point, Real};
 pub struct Localization {
     activity: Activity,
     speeds: Vec<Real>,
-    /// Node positions at the end of the previous step (motion is measured by them).
+    /// Node positions at the previous update (motion is measured by them).
     previous_positions: Vec<Point>,
+    /// Sections the tools touch this step, and one tool's sections.
+    touched: Vec<u32>,
+    touched_by_one: Vec<u32>,
     frozen_skeleton: Vec<bool>,
 }
 
@@ -30,6 +33,8 @@ impl Localization {
             activity: Activity::new(config),
             speeds: Vec::new(),
             previous_positions: Vec::new(),
+            touched: Vec::new(),
+            touched_by_one: Vec::new(),
             frozen_skeleton: Vec::new(),
         }
     }
@@ -48,8 +53,8 @@ impl Localization {
     }
 
     /// Updates the cells' activity from how far each section of `sections` (in `grid`, rebuilt
-    /// over them) moved over the last step, with the pressed tools' volumes waking their
-    /// cells; then freezes the skeletons of `front` with no active section (their rates zeroed,
+    /// over them) moved since the last update, with the sections the pressed tools touch
+    /// waking their cells; then freezes the skeletons of `front` with no active section (their rates zeroed,
     /// so that they wake with no motion) and activates the others.
     pub fn update(
         &mut self,
@@ -83,13 +88,21 @@ impl Localization {
                     .map(|&i| v[i as usize].norm().max(v[i as usize - 1].norm())),
             );
         }
+        // A tool wakes the hair it reaches, not every cell its volume's cover holds: a wide
+        // cone over one side must leave the other side dormant.
+        self.touched.clear();
+        for tool in tools {
+            grid.sections_in(tool, &mut self.touched_by_one)?;
+            self.touched.extend_from_slice(&self.touched_by_one);
+        }
         self.activity.update(
             grid,
             &ActivityInput {
                 dt,
                 speeds: &self.speeds,
                 neighbour_forces: &[],
-                tools,
+                tools: &[],
+                touched_sections: &self.touched,
             },
         )?;
         self.frozen_skeleton.clear();
@@ -112,12 +125,10 @@ impl Localization {
             }
             state.set_active(id, active);
         }
-        Ok(())
-    }
-
-    /// Records the positions at the end of a step, for the next update's motion.
-    pub fn record_positions(&mut self, state: &StrandState) {
+        // Recorded here, not at the end of the step: nothing moves between the end of one step
+        // and the next update, so motion measured from there would always be zero.
         self.previous_positions.clear();
         self.previous_positions.extend_from_slice(state.positions());
+        Ok(())
     }
 }

@@ -66,8 +66,11 @@ pub struct ActivityInput<'a> {
     /// Magnitude of the force each section receives from active neighbouring nodes, newtons
     /// (one per section, or empty for none).
     pub neighbour_forces: &'a [Real],
-    /// Tools acting this step; the cells they touch wake.
+    /// Tools acting this step; every cell their volumes cover wakes.
     pub tools: &'a [InfluenceVolume],
+    /// Sections a tool touches this step (indices into the grid, any order); the cells they
+    /// lie in wake. Finer than `tools`: a wide cone wakes only the hair it reaches.
+    pub touched_sections: &'a [u32],
 }
 
 /// Per-cell activity tracking across steps; feed it the grid after each rebuild.
@@ -189,6 +192,17 @@ impl Activity {
             grid.cells_touched_by(tool, &mut self.touched)?;
             self.tool_cells
                 .extend(self.touched.iter().map(|&k| packed(k)));
+        }
+        for &i in input.touched_sections {
+            if i as usize >= n {
+                return Err(GridError::UnknownSection {
+                    what: "ActivityInput::touched_sections",
+                    index: i,
+                    sections: n,
+                });
+            }
+            let keys = grid.item_keys(i as usize);
+            self.tool_cells.extend_from_slice(keys);
         }
         self.tool_cells.sort_unstable();
         self.tool_cells.dedup();

@@ -70,6 +70,16 @@ pub enum GridError {
         /// Number of values given.
         found: usize,
     },
+    /// A section index given as input is not a section of the grid.
+    #[error("{what}: section {index} given, the grid holds {sections} sections")]
+    UnknownSection {
+        /// Which input (`"ActivityInput::touched_sections"`, ...).
+        what: &'static str,
+        /// The offending index.
+        index: u32,
+        /// Number of sections in the grid.
+        sections: usize,
+    },
     /// A triangle refers to a vertex that does not exist.
     #[error("body triangle {index}: vertex index {vertex} out of range ({vertices} vertices)")]
     BadTriangleIndex {

@@ -51,6 +51,7 @@ fn step(
             speeds,
             neighbour_forces: forces,
             tools,
+            ..Default::default()
         },
     )
     .unwrap();
@@ -201,5 +202,52 @@ fn mismatched_inputs_are_errors_not_panics() {
             }
         )
         .is_err()
+    );
+    assert!(matches!(
+        act.update(
+            &grid,
+            &ActivityInput {
+                dt: DT,
+                speeds: &speeds,
+                touched_sections: &[secs.len() as u32],
+                ..Default::default()
+            }
+        ),
+        Err(hair_grid::GridError::UnknownSection { index: 10, .. })
+    ));
+}
+
+#[test]
+fn a_touched_section_wakes_its_cells_and_no_others() {
+    let secs = strands(0.0);
+    let mut grid = Grid::new(GridConfig {
+        cell_size: Some(0.01),
+        ..GridConfig::default()
+    });
+    grid.rebuild(&secs).unwrap();
+    let mut act = Activity::new(config());
+    let rest = vec![0.0; secs.len()];
+    for _ in 0..5 {
+        step(&mut act, &grid, &rest, &[], &[]);
+    }
+    assert!(act.skeletons_to_integrate().is_empty());
+    // Strand 1's tip section is touched: the cells it lies in wake, so it and the section
+    // sharing one of them (its neighbour) thaw; strand 0 and strand 1's root stay frozen.
+    act.update(
+        &grid,
+        &ActivityInput {
+            dt: DT,
+            speeds: &rest,
+            touched_sections: &[9],
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(act.skeletons_to_integrate(), &[1]);
+    assert!(act.frozen()[..5].iter().all(|&f| f));
+    assert!(!act.frozen()[9] && !act.frozen()[8]);
+    assert!(
+        act.frozen()[5],
+        "a section sharing no cell with the touched one stays frozen"
     );
 }
