@@ -194,6 +194,7 @@ impl Simulation {
         // it was moving a step before the start as the path says.
         let pose = |t: Real| drivers::head_pose(&scene.head_motion, t);
         let head = HeadPoseTrack::with_previous(settings.dt, pose(-settings.dt), pose(0.0))?;
+        let localization = Localization::for_model(&scene.collision.hair_hair);
         let mut sim = Self {
             initial: state.clone(),
             scene,
@@ -207,7 +208,7 @@ impl Simulation {
             lod,
             grid: Grid::new(GridConfig::default()),
             sections,
-            localization: Localization::default(),
+            localization,
             hair_hair: HairHairStage::new(),
             body_constraint: BodyConstraint::with_support(support),
             parts: Vec::new(),
@@ -556,7 +557,7 @@ impl Simulation {
             self.grid.rebuild(&self.sections.sections)?;
         }
         if self.scene.localization {
-            let (state, tools) = (&mut self.state, self.salon.volumes());
+            let (state, tools) = (&mut self.state, self.salon.touched_nodes());
             let (grid, sections, front) = (&self.grid, &self.sections, &self.front_nodes);
             let dt = self.settings.dt;
             self.localization

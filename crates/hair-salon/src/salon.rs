@@ -140,6 +140,8 @@ pub struct Salon {
     grabs: Vec<Grab>,
     forced: Vec<u32>,
     hits: Vec<u32>,
+    /// End nodes of the sections the pressed tools acted on in the last step, ascending.
+    touched: Vec<u32>,
     cells: Vec<hair_grid::CellKey>,
     section_mark: Vec<bool>,
     bond_keys: Vec<(u32, u32)>,
@@ -178,6 +180,7 @@ impl Salon {
         self.cursor = 0;
         self.pressed = [None; 6];
         self.volumes.clear();
+        self.touched.clear();
         let refill = |v: &mut Vec<Real>, from: &[Real]| {
             v.clear();
             v.extend_from_slice(from);
@@ -239,9 +242,16 @@ impl Salon {
         Ok(())
     }
 
-    /// The areas of the pressed tools (head frame) as of the last step: their cells wake.
+    /// The areas of the pressed tools (head frame) as of the last step.
     pub fn volumes(&self) -> &[InfluenceVolume] {
         &self.volumes
+    }
+
+    /// The end nodes (state node indices, ascending) of the sections that the water, spray,
+    /// mousse, dryer and grab acted on in the last step: the hair localization must keep
+    /// awake.
+    pub fn touched_nodes(&self) -> &[u32] {
+        &self.touched
     }
 
     /// The fallen pieces (swept ones included), in the order they fell.
@@ -340,6 +350,7 @@ impl Salon {
         if self.pressed[Tool::Dryer.index()].is_none() && !self.forced.is_empty() {
             self.clear_forces(state);
         }
+        self.touched.clear();
         for tool in [Tool::Water, Tool::Spray, Tool::Mousse, Tool::Dryer] {
             if let Some(i) = self.pressed[tool.index()] {
                 self.apply(state, inp, tool, i as usize)?;
@@ -347,7 +358,15 @@ impl Salon {
         }
         if let Some(i) = self.pressed[Tool::Grab.index()] {
             self.hold(state, inp, i as usize)?;
+            if let InfluenceVolume::Cone(cone) = self.volume(i as usize, inp.time, inp.head) {
+                let mut hits = std::mem::take(&mut self.hits);
+                self.sections_in_cone(state, inp, &cone, &mut hits)?;
+                self.touch(state, inp.sections, &hits);
+                self.hits = hits;
+            }
         }
+        self.touched.sort_unstable();
+        self.touched.dedup();
         self.propagate(state, inp.hierarchy)?;
         self.collide_fallen(state, inp)?;
         // Counters.
@@ -432,6 +451,15 @@ impl Salon {
 
     /// Whether section `sec` is still a live segment of its skeleton (a cut this step may have
     /// removed it); returns its skeleton and local segment end.
+    /// Records the end nodes of the live sections `hits` as touched.
+    fn touch(&mut self, state: &StrandState, sections: &[Section], hits: &[u32]) {
+        let live = hits
+            .iter()
+            .filter_map(|&h| Self::live(state, sections, h as usize));
+        self.touched
+            .extend(live.map(|(id, k)| (state.nodes(id).start + k) as u32));
+    }
+
     fn live(state: &StrandState, sections: &[Section], sec: usize) -> Option<(SkeletonId, usize)> {
         let s = &sections[sec];
         let id = SkeletonId(s.skeleton);
@@ -497,6 +525,7 @@ impl Salon {
         let mut hits = std::mem::take(&mut self.hits);
         self.sections_in_cone(state, inp, &cone, &mut hits)?;
         self.stats.tool_sections += hits.len();
+        self.touch(state, inp.sections, &hits);
         let axis = cone.axis.normalize();
         if tool == Tool::Dryer {
             self.clear_forces(state);
