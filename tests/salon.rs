@@ -409,3 +409,37 @@ fn the_salon_session_runs_under_every_fixed_level_of_detail() {
         }
     }
 }
+
+#[test]
+fn a_still_head_with_one_tool_on_one_side_keeps_most_of_the_head_dormant() {
+    // The session's combed hair on its head, one tool: mousse worked into the left side.
+    let mut loaded = small_salon(300);
+    loaded.scene.tools.events = vec![
+        ToolEvent {
+            pose: Pose {
+                position: [-0.35, 0.0, -0.05],
+                direction: [1.0, 0.0, 0.0],
+                ..Pose::default()
+            },
+            reach: 0.3,
+            angle: 0.3,
+            ..event(1.0, Tool::Mousse, ToolAction::Press)
+        },
+        event(3.0, Tool::Mousse, ToolAction::Release),
+    ];
+    let mut sim = Simulation::new(&loaded, LodPolicy::Fine).unwrap();
+    steps_to(&mut sim, 1.6);
+    let (mut least, mut touched) = (usize::MAX, 0);
+    while sim.time() < 3.0 {
+        let stats = sim.step().unwrap();
+        least = least.min(stats.dormant);
+        touched = touched.max(stats.salon.tool_sections);
+        assert!(stats.active > 0, "the hair under the tool is simulated");
+    }
+    assert!(touched > 0, "the mousse reached the hair");
+    let skeletons = sim.front_nodes().len();
+    assert!(
+        2 * least > skeletons,
+        "{least} of {skeletons} skeletons dormant while one side is worked"
+    );
+}
