@@ -603,6 +603,43 @@ mod tests {
         residual / (norm_a * max_abs(x) + max_abs(b))
     }
 
+    /// Infinity-norm condition number of the dense `n x n` matrix `a` (row-major), by
+    /// Gauss-Jordan inversion with partial pivoting: how far a tiny backward error can move the
+    /// answer.
+    fn condition(a: &[f64], n: usize) -> f64 {
+        let norm = |m: &[f64]| {
+            (0..n)
+                .map(|r| m[r * n..(r + 1) * n].iter().map(|v| v.abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        };
+        let (mut m, mut inv) = (a.to_vec(), vec![0.0; n * n]);
+        for i in 0..n {
+            inv[i * n + i] = 1.0;
+        }
+        for c in 0..n {
+            let p = (c..n)
+                .max_by(|&i, &j| m[i * n + c].abs().total_cmp(&m[j * n + c].abs()))
+                .unwrap_or(c);
+            for k in 0..n {
+                m.swap(c * n + k, p * n + k);
+                inv.swap(c * n + k, p * n + k);
+            }
+            let d = m[c * n + c];
+            for k in 0..n {
+                m[c * n + k] /= d;
+                inv[c * n + k] /= d;
+            }
+            for r in (0..n).filter(|&r| r != c) {
+                let f = m[r * n + c];
+                for k in 0..n {
+                    m[r * n + k] -= f * m[c * n + k];
+                    inv[r * n + k] -= f * inv[c * n + k];
+                }
+            }
+        }
+        norm(a) * norm(&inv)
+    }
+
     fn max_abs<T: RealField + Copy>(v: &[T]) -> T {
         v.iter().fold(T::zero(), |m, x| m.max(x.abs()))
     }
@@ -614,7 +651,7 @@ mod tests {
         /// answer's backward error in the dense system is at rounding level (f64), for both load
         /// models, clamped and free roots, any step and loads up to a thousand times the weight
         /// (compressive ones included); and on systems faer solves with a modest answer it is
-        /// faer's answer.
+        /// faer's answer, within what the system's conditioning allows.
         #[test]
         fn the_structured_solve_agrees_with_faer(n in 2usize..40, seed in any::<u64>(),
                                                  h in 1e-4f64..0.1, load in 0.0f64..0.2,
@@ -629,9 +666,9 @@ mod tests {
                 // What the residual check guarantees (sqrt of the precision), normwise.
                 prop_assert!(error <= 2e-8, "backward error {error:e} (n {n})");
                 if max_abs(&faer) < 1e3 {
-                    let scale = 1.0 + max_abs(&faer);
+                    let scale = (1.0 + max_abs(&faer)) * condition(&a, b.len()).max(1.0);
                     for (s, f) in x.iter().zip(&faer) {
-                        prop_assert!((s - f).abs() <= 1e-7 * scale, "{s} vs {f} (n {n})");
+                        prop_assert!((s - f).abs() <= 1e-9 * scale, "{s} vs {f} (n {n})");
                     }
                 }
             }
@@ -675,9 +712,12 @@ mod tests {
                 let error = backward_error(&a, &b, &x);
                 prop_assert!(error <= 2e-8, "backward error {error:e} (n {n})");
                 if max_abs(&faer) < 1e3 {
-                    let scale = 1.0 + max_abs(&faer);
+                    // Two answers at rounding-level backward error differ by up to the
+                    // condition number times it: the Coriolis terms make some systems
+                    // conditioned in the hundreds.
+                    let scale = (1.0 + max_abs(&faer)) * condition(&a, b.len()).max(1.0);
                     for (s, f) in x.iter().zip(&faer) {
-                        prop_assert!((s - f).abs() <= 1e-7 * scale, "{s} vs {f} (n {n})");
+                        prop_assert!((s - f).abs() <= 1e-9 * scale, "{s} vs {f} (n {n})");
                     }
                 }
             }
