@@ -126,6 +126,9 @@ pub struct Salon {
     thickness: Vec<Real>,
     base_k_theta: Vec<Real>,
     base_k_phi: Vec<Real>,
+    /// The groom's joint angles and the rest angles that hold them (theta, phi), at the start.
+    groom: Vec<[Real; 2]>,
+    base_rest: Vec<[Real; 2]>,
     base_radius: Vec<Real>,
     curl: Vec<Real>,
     // Per hierarchy node.
@@ -191,6 +194,13 @@ impl Salon {
         self.thickness.resize(n, 1.0);
         refill(&mut self.base_k_theta, state.k_theta());
         refill(&mut self.base_k_phi, state.k_phi());
+        let pair = |(x, y): (&Real, &Real)| [*x, *y];
+        self.groom.clear();
+        self.groom
+            .extend(state.theta().iter().zip(state.phi()).map(pair));
+        self.base_rest.clear();
+        let rest = state.rest_theta().iter().zip(state.rest_phi());
+        self.base_rest.extend(rest.map(pair));
         refill(&mut self.base_radius, state.radius());
         for (s, &r) in skeleton_radius.iter().enumerate() {
             if s < state.skeleton_count() {
@@ -201,8 +211,10 @@ impl Salon {
         }
         let ca = self.script.settings.curl_angle.max(1e-6);
         self.curl.clear();
-        self.curl.extend((0..n).map(|i| {
-            let b = (state.rest_theta()[i].powi(2) + state.rest_phi()[i].powi(2)).sqrt();
+        // The groom's bends, not the rest angles: those also hold the groom up against its
+        // weight (sag-free), which would make every strand count as curled.
+        self.curl.extend(self.groom.iter().map(|[theta, phi]| {
+            let b = (theta.powi(2) + phi.powi(2)).sqrt();
             (b / ca).min(1.0)
         }));
         self.mark.clear();
@@ -418,6 +430,8 @@ impl Salon {
             self.thickness.resize(n, 1.0);
             self.base_k_theta.resize(n, 0.0);
             self.base_k_phi.resize(n, 0.0);
+            self.groom.resize(n, [0.0; 2]);
+            self.base_rest.resize(n, [0.0; 2]);
             self.base_radius.resize(n, 0.0);
             self.curl.resize(n, 0.0);
         }
@@ -792,6 +806,9 @@ impl Salon {
                     self.thickness[dst] = self.thickness[src];
                     self.base_k_theta[dst] = self.base_k_theta[src];
                     self.base_k_phi[dst] = self.base_k_phi[src];
+                    // A fallen piece holds no load: its rest angles as copied, no preload.
+                    let rest = [state.rest_theta()[dst], state.rest_phi()[dst]];
+                    (self.groom[dst], self.base_rest[dst]) = (rest, rest);
                     self.base_radius[dst] = self.base_radius[src];
                     self.curl[dst] = if j >= 2 { self.curl[src] } else { 0.0 };
                 }
@@ -870,8 +887,23 @@ impl Salon {
             let m = state.mass()[i];
             let w = state.wetness()[i];
             let wet = if m + w > 0.0 { w / (m + w) } else { 0.0 };
-            state.k_theta_mut()[i] = self.base_k_theta[i] * self.stiffness[i];
-            state.k_phi_mut()[i] = self.base_k_phi[i] * self.stiffness[i];
+            let f = self.stiffness[i];
+            state.k_theta_mut()[i] = self.base_k_theta[i] * f;
+            state.k_phi_mut()[i] = self.base_k_phi[i] * f;
+            // The rest angles hold the groom against its load (sag-free); a spring made f times
+            // stiffer keeps the same torque there with an offset f times smaller, so sprayed
+            // hair stays where it was groomed instead of springing up over the crown. (A
+            // coarse skeleton's points past its children's cut ends average to a factor of 0.)
+            let ([g_theta, g_phi], [b_theta, b_phi]) = (self.groom[i], self.base_rest[i]);
+            let held = |g: Real, b: Real| {
+                if f == 1.0 || f <= 0.0 {
+                    b
+                } else {
+                    g - (g - b) / f
+                }
+            };
+            state.rest_theta_mut()[i] = held(g_theta, b_theta);
+            state.rest_phi_mut()[i] = held(g_phi, b_phi);
             state.radius_mut()[i] =
                 self.base_radius[i] * self.thickness[i] * (1.0 - st.wet_shrink * wet);
             if i == r.start {

@@ -157,7 +157,7 @@ pub struct SalonSettings {
     /// Axial stiffness of a wet, fully curled segment (N per unit strain); divided by the wet
     /// fraction and the curl, so wetter and curlier hair stretches more.
     pub wet_stretch_stiffness: f32,
-    /// Bend (rad) of a rest joint counted as fully curled.
+    /// Bend (rad) of a groomed joint counted as fully curled.
     pub curl_angle: f32,
     /// Growth of the spring factor per second under spray at strength 1.
     pub spray_rate: f32,
