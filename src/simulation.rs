@@ -185,8 +185,8 @@ impl Simulation {
         let mut drawn = DrawnStrands::new(strand_rest.collect(), per, 3);
         drawn.prepare(&hierarchy, &state, &front_nodes);
         drawn.set_followers(scene.render_strands as usize, scene.seed);
-        let salon = Salon::new(&scene.tools, &state, &hierarchy, &node_radius);
         let lod = LodStage::new(policy, &scene, &hierarchy, &mut state)?;
+        let salon = Salon::new(&scene.tools, &state, &hierarchy, &node_radius);
         let settings = scene
             .dynamics
             .step_settings(scene.frame_rate, scene.substeps);
