@@ -557,11 +557,11 @@ impl Simulation {
             self.grid.rebuild(&self.sections.sections)?;
         }
         if self.scene.localization {
-            let (state, tools) = (&mut self.state, self.salon.touched_nodes());
+            let (state, touched) = (&mut self.state, self.salon.touched_nodes());
             let (grid, sections, front) = (&self.grid, &self.sections, &self.front_nodes);
             let dt = self.settings.dt;
             self.localization
-                .update(state, grid, sections, front, dt, tools)?;
+                .update(state, grid, sections, front, dt, touched)?;
         }
         Ok(())
     }

@@ -33,6 +33,20 @@ fn event(time: f32, tool: Tool, action: ToolAction) -> ToolEvent {
     }
 }
 
+/// `tool` pressed at `time`, 35 cm to the left of the head pointing at it, reaching 30 cm.
+fn on_the_left(time: f32, tool: Tool) -> ToolEvent {
+    ToolEvent {
+        pose: Pose {
+            position: [-0.35, 0.0, -0.05],
+            direction: [1.0, 0.0, 0.0],
+            ..Pose::default()
+        },
+        reach: 0.3,
+        angle: 0.3,
+        ..event(time, tool, ToolAction::Press)
+    }
+}
+
 fn steps_to(sim: &mut Simulation, t: f32) {
     while sim.time() < t {
         sim.step().expect("step");
@@ -303,15 +317,8 @@ fn dormant_hair_stays_frozen_until_a_tool_touches_it() {
     let mut loaded = small_salon(300);
     loaded.scene.tools.events = vec![
         ToolEvent {
-            pose: Pose {
-                position: [-0.35, 0.0, -0.05],
-                direction: [1.0, 0.0, 0.0],
-                ..Pose::default()
-            },
-            reach: 0.3,
-            angle: 0.3,
             strength: 2.0,
-            ..event(4.0, Tool::Water, ToolAction::Press)
+            ..on_the_left(4.0, Tool::Water)
         },
         event(4.5, Tool::Water, ToolAction::Release),
     ];
@@ -415,16 +422,7 @@ fn a_still_head_with_one_tool_on_one_side_keeps_most_of_the_head_dormant() {
     // The session's combed hair on its head, one tool: mousse worked into the left side.
     let mut loaded = small_salon(300);
     loaded.scene.tools.events = vec![
-        ToolEvent {
-            pose: Pose {
-                position: [-0.35, 0.0, -0.05],
-                direction: [1.0, 0.0, 0.0],
-                ..Pose::default()
-            },
-            reach: 0.3,
-            angle: 0.3,
-            ..event(1.0, Tool::Mousse, ToolAction::Press)
-        },
+        on_the_left(1.0, Tool::Mousse),
         event(3.0, Tool::Mousse, ToolAction::Release),
     ];
     let mut sim = Simulation::new(&loaded, LodPolicy::Fine).unwrap();

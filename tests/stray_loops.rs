@@ -5,9 +5,23 @@
 //! (`hair_lod::MAX_STRAND_SPREAD_DEGREES`, `docs/perf/stray-loops.md`).
 
 use hair::{LodPolicy, Scene, Simulation};
+use hair_ssv::Point;
 
 /// The procedural head's top (m, head frame: y up).
 const HEAD_TOP: f32 = 0.115;
+
+/// The highest point of a drawn strand (m, y up).
+fn strand_top(points: &[Point]) -> f32 {
+    points.iter().map(|p| p.y).fold(f32::MIN, f32::max)
+}
+
+/// The highest point of the last frame's drawn hair.
+fn highest_drawn(sim: &Simulation) -> f32 {
+    let drawn = sim.frame_geometry();
+    (0..drawn.strand_count())
+        .map(|s| strand_top(drawn.strand(s)))
+        .fold(f32::MIN, f32::max)
+}
 
 /// `salon` with no tool and every skeleton simulated, settled for 20 steps (a third of a
 /// second): every drawn strand has fallen to within 3 cm of the top of the head. On the old
@@ -25,7 +39,7 @@ fn salon_at_rest_has_no_strand_standing_over_the_crown() {
     let drawn = sim.frame_geometry();
     let mut standing = Vec::new();
     for s in 0..drawn.strand_count() {
-        let top = drawn.strand(s).iter().map(|p| p.y).fold(f32::MIN, f32::max);
+        let top = strand_top(drawn.strand(s));
         if top > HEAD_TOP + 0.03 {
             standing.push(format!("strand {s} reaches {:.3} m", top - HEAD_TOP));
         }
@@ -50,12 +64,9 @@ fn after_the_cut_no_strand_springs_up_over_the_crown() {
     for step in 0..330 {
         sim.step().expect("step");
         if step >= 150 && step % 10 == 0 {
-            let drawn = sim.frame_geometry();
-            for s in 0..drawn.strand_count() {
-                let top = drawn.strand(s).iter().map(|p| p.y).fold(f32::MIN, f32::max);
-                if top > worst.1 {
-                    worst = (step, top);
-                }
+            let top = highest_drawn(&sim);
+            if top > worst.1 {
+                worst = (step, top);
             }
         }
     }
@@ -85,12 +96,9 @@ fn sprayed_hair_stays_where_it_was_groomed() {
     for step in 0..360 {
         let stats = sim.step().expect("step");
         if step >= 240 && step % 10 == 0 {
-            let drawn = sim.frame_geometry();
-            for s in 0..drawn.strand_count() {
-                let top = drawn.strand(s).iter().map(|p| p.y).fold(f32::MIN, f32::max);
-                if top > worst.1 {
-                    worst = (step, top);
-                }
+            let top = highest_drawn(&sim);
+            if top > worst.1 {
+                worst = (step, top);
             }
             if step == 300 {
                 assert!(stats.salon.bonds > 0, "the spray bonded the crown");

@@ -187,21 +187,8 @@ impl Localization {
     /// not renumber) from its own speed and the tools, and whether it is frozen.
     fn quiet_sections(&mut self, sections: &Sections, dt: Real) -> Result<(), CollideError> {
         let config = self.activity.config();
+        config.validate(dt)?;
         let (after, threshold) = (config.dormant_after, config.speed_threshold);
-        for (field, value) in [
-            ("ActivityConfig::dormant_after", after),
-            ("ActivityConfig::speed_threshold", threshold),
-            ("dt", dt),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(hair_grid::GridError::InvalidConfig {
-                    field,
-                    value,
-                    requirement: "must be finite and >= 0",
-                }
-                .into());
-            }
-        }
         std::mem::swap(&mut self.node_quiet, &mut self.last_quiet);
         self.node_quiet.clear();
         self.node_quiet.resize(self.node_touched.len(), 0.0);

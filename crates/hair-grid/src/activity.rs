@@ -20,6 +20,30 @@ pub struct ActivityConfig {
     pub wake_force: Real,
 }
 
+impl ActivityConfig {
+    /// Checks the thresholds and a step `dt` (s): each finite and >= 0.
+    ///
+    /// # Errors
+    /// [`GridError::InvalidConfig`] naming the first bad value.
+    pub fn validate(&self, dt: Real) -> Result<(), GridError> {
+        for (field, value) in [
+            ("ActivityConfig::dormant_after", self.dormant_after),
+            ("ActivityConfig::speed_threshold", self.speed_threshold),
+            ("ActivityConfig::wake_force", self.wake_force),
+            ("ActivityInput::dt", dt),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(GridError::InvalidConfig {
+                    field,
+                    value,
+                    requirement: "must be finite and >= 0",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Default for ActivityConfig {
     fn default() -> Self {
         Self {
@@ -157,21 +181,7 @@ impl Activity {
     /// [`Grid::cells_touched_by`] for a bad tool.
     pub fn update(&mut self, grid: &Grid, input: &ActivityInput<'_>) -> Result<(), GridError> {
         let n = grid.len();
-        let cfg = &self.config;
-        for (field, value) in [
-            ("ActivityConfig::dormant_after", cfg.dormant_after),
-            ("ActivityConfig::speed_threshold", cfg.speed_threshold),
-            ("ActivityConfig::wake_force", cfg.wake_force),
-            ("ActivityInput::dt", input.dt),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(GridError::InvalidConfig {
-                    field,
-                    value,
-                    requirement: "must be finite and >= 0",
-                });
-            }
-        }
+        self.config.validate(input.dt)?;
         if input.speeds.len() != n {
             return Err(GridError::LengthMismatch {
                 what: "ActivityInput::speeds",

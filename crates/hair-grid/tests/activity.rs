@@ -63,6 +63,22 @@ fn step(
     }
 }
 
+/// The two strands in 1 cm cells, at rest long enough (0.5 s) for every cell to be dormant.
+fn settled() -> (Vec<Section>, Grid, Activity) {
+    let secs = strands(0.0);
+    let mut grid = Grid::new(GridConfig {
+        cell_size: Some(0.01),
+        ..GridConfig::default()
+    });
+    grid.rebuild(&secs).unwrap();
+    let mut act = Activity::new(config());
+    let rest = vec![0.0; secs.len()];
+    for _ in 0..5 {
+        step(&mut act, &grid, &rest, &[], &[]);
+    }
+    (secs, grid, act)
+}
+
 #[test]
 fn rest_then_poke_then_rest() {
     let secs = strands(0.0);
@@ -115,17 +131,8 @@ fn rest_then_poke_then_rest() {
 
 #[test]
 fn a_section_entering_a_dormant_cell_wakes_it() {
-    let secs = strands(0.0);
-    let mut grid = Grid::new(GridConfig {
-        cell_size: Some(0.01),
-        ..GridConfig::default()
-    });
-    grid.rebuild(&secs).unwrap();
-    let mut act = Activity::new(config());
+    let (secs, mut grid, mut act) = settled();
     let rest = vec![0.0; secs.len()];
-    for _ in 0..5 {
-        step(&mut act, &grid, &rest, &[], &[]);
-    }
     assert!(act.skeletons_to_integrate().is_empty());
     // Strand 1 slid down by more than a cell (its speed reported as zero: only the entering and
     // leaving count).
@@ -139,17 +146,8 @@ fn a_section_entering_a_dormant_cell_wakes_it() {
 
 #[test]
 fn a_strong_neighbour_force_wakes_a_dormant_cell_and_a_weak_one_does_not() {
-    let secs = strands(0.0);
-    let mut grid = Grid::new(GridConfig {
-        cell_size: Some(0.01),
-        ..GridConfig::default()
-    });
-    grid.rebuild(&secs).unwrap();
-    let mut act = Activity::new(config());
+    let (secs, grid, mut act) = settled();
     let rest = vec![0.0; secs.len()];
-    for _ in 0..5 {
-        step(&mut act, &grid, &rest, &[], &[]);
-    }
     let mut weak = vec![0.0; secs.len()];
     weak[2] = 0.001;
     step(&mut act, &grid, &rest, &weak, &[]);
@@ -219,17 +217,8 @@ fn mismatched_inputs_are_errors_not_panics() {
 
 #[test]
 fn a_touched_section_wakes_its_cells_and_no_others() {
-    let secs = strands(0.0);
-    let mut grid = Grid::new(GridConfig {
-        cell_size: Some(0.01),
-        ..GridConfig::default()
-    });
-    grid.rebuild(&secs).unwrap();
-    let mut act = Activity::new(config());
+    let (secs, grid, mut act) = settled();
     let rest = vec![0.0; secs.len()];
-    for _ in 0..5 {
-        step(&mut act, &grid, &rest, &[], &[]);
-    }
     assert!(act.skeletons_to_integrate().is_empty());
     // Strand 1's tip section is touched: the cells it lies in wake, so it and the section
     // sharing one of them (its neighbour) thaw; strand 0 and strand 1's root stay frozen.
