@@ -45,6 +45,10 @@ pub struct BodyConstraint {
     /// the step it was last added to.
     support: Option<BodySupport>,
     supported_step: Option<u64>,
+    /// The joint angles before this application's passes, and the active front (ascending).
+    recorded_theta: Vec<Real>,
+    recorded_phi: Vec<Real>,
+    active_skeletons: Vec<u32>,
 }
 
 impl BodyConstraint {
@@ -167,6 +171,14 @@ impl BodyConstraint {
             // constraint does not move is allowed nothing).
             self.allowance.clear();
             self.allowance.resize(state.positions().len(), 0.0);
+        }
+        // The angles before the passes, for the rates they take back (below).
+        let still = body.motion.is_none_or(|m| m.pose == m.previous);
+        if still {
+            self.recorded_theta.clear();
+            self.recorded_theta.extend_from_slice(state.theta());
+            self.recorded_phi.clear();
+            self.recorded_phi.extend_from_slice(state.phi());
         }
         let method = settings.method;
         let friction = settings.friction;
@@ -443,6 +455,25 @@ impl BodyConstraint {
                 }
                 moved
             });
+        }
+        // Where the passes turned a joint back against its rate (the dynamics drove a node in
+        // and the push-out undid it), the rate shrinks by that turn over the step: the hair
+        // did not move that way, and a rate left in place drove it in again every step. (Not
+        // against a moving part: its push-out is motion the hair keeps.)
+        if still {
+            self.active_skeletons.clear();
+            self.active_skeletons.extend(
+                front
+                    .iter()
+                    .copied()
+                    .filter(|&n| state.is_active(SkeletonId(n))),
+            );
+            self.active_skeletons.sort_unstable();
+            state.absorb_turns(
+                &self.recorded_theta,
+                &self.recorded_phi,
+                &self.active_skeletons,
+            )?;
         }
         if !self.constraints.is_empty() {
             match body.motion.filter(|m| m.pose != m.previous) {

@@ -155,7 +155,18 @@ fn constrain_and_refresh(
     group: &[u32],
     constraints: &[VelocityConstraint],
     surface: Option<&[Vector]>,
+    inverse_inertia: &[Real],
 ) {
+    if r.len() <= MAX_CHAIN {
+        let contacts = Contacts {
+            group,
+            constraints,
+            surface,
+        };
+        constrain_chain(run, s, r.clone(), &contacts, inverse_inertia);
+        refresh_skeleton(run, s, r);
+        return;
+    }
     let lo = r.start;
     let base = run.node_base;
     let node_of = |ci: u32| constraints[ci as usize].node as usize - base;
@@ -235,6 +246,151 @@ fn constrain_and_refresh(
         run.positions[i] = Point::from(position);
         run.velocities[i] = velocity;
         before = here;
+    }
+}
+
+/// Longest skeleton (nodes) whose contacts [`constrain_chain`] takes through its whole chain;
+/// a longer one has each contact taken by its own joint ([`constrain_joint`]).
+const MAX_CHAIN: usize = 64;
+
+/// Rounds of [`constrain_chain`] over a skeleton's contacts: an impulse turns the joints above
+/// its node, and so moves the contacts nearer the root, which the next round sees again.
+const CONTACT_ROUNDS: usize = 3;
+
+/// The velocity constraints on skeleton `s` (nodes `r` of `run`, at most [`MAX_CHAIN`]), as
+/// impulses on the constrained nodes taken by every joint between the root and the node, on
+/// the velocity relative to each contact's surface (still, or moving at `contacts.surface`),
+/// in the model's own inertia (`inverse_inertia`, per node slot: the inverse of
+/// the joint's diagonal inertia, as the step uses it).
+///
+/// An impulse `p` at a node turns joint `j` by `I_j^-1 J_j^T p` (`J_j`: how the joint's two
+/// rates move the node), so the node's velocity changes by `A p`, `A = sum_j J_j I_j^-1 J_j^T`.
+/// The normal impulse `p = n lambda` with `lambda = -(v . n) / (n . A n)` removes the approach;
+/// the friction impulse along the remaining slide `t`, at most the coefficient times `lambda`
+/// and at most what stops the slide (`|v_t| / (t . A t)`), slows it. Each lowers the kinetic
+/// energy `sum_j I_j |w_j|^2 / 2` by `(v . n)^2 / (2 n . A n)` and at least nothing. Taken by
+/// its own joint alone, as until 2026-12, a contact left the joints above it driving the node
+/// into the body and sliding it along: hair lying on the head crept and swung for seconds.
+fn constrain_chain(
+    run: &mut Run<'_>,
+    s: usize,
+    r: Range<usize>,
+    contacts: &Contacts<'_>,
+    inverse_inertia: &[Real],
+) {
+    let Contacts {
+        group,
+        constraints,
+        surface,
+    } = *contacts;
+    let (lo, n) = (r.start, r.len());
+    let base = run.node_base;
+    // World axes of each joint (index within the skeleton; the root's unused).
+    let mut axis_x = [Vector::zeros(); MAX_CHAIN];
+    let mut axis_y = [Vector::zeros(); MAX_CHAIN];
+    let root = &run.roots[s - run.first];
+    let free = root.free;
+    let mut rot = root.rotation;
+    for k in 1..n {
+        let bend = Bend::new(run.theta[lo + k], run.phi[lo + k]);
+        axis_x[k] = rot * bend.axis_x;
+        axis_y[k] = rot * bend.axis_y;
+        rot *= bend.rotation;
+    }
+    for _ in 0..CONTACT_ROUNDS {
+        for &ci in group {
+            let c = &constraints[ci as usize];
+            let normal = c.normal.try_normalize(1e-12).unwrap_or_else(Vector::zeros);
+            let k = c.node as usize - base - lo;
+            let moving = surface.map_or_else(Vector::zeros, |v| v[ci as usize]);
+            if k == 0 {
+                // A free root moves with its own velocity; an attached one does not move.
+                let root = &mut run.roots[s - run.first];
+                if free
+                    && let Some((n, f)) =
+                        surface_change(&(root.velocity - moving), &normal, c.friction)
+                {
+                    root.velocity += n + f;
+                }
+                continue;
+            }
+            let at = run.positions[lo + k];
+            let lever = |j: usize| at - run.positions[lo + j - 1];
+            let weight = |j: usize| inverse_inertia[base + lo + j];
+            let mut velocity = if free {
+                run.roots[s - run.first].velocity
+            } else {
+                Vector::zeros()
+            };
+            let mut response = Matrix3::zeros();
+            for j in 1..=k {
+                let arm = lever(j);
+                let (cx, cy) = (axis_x[j].cross(&arm), axis_y[j].cross(&arm));
+                velocity += cx * run.omega_theta[lo + j] + cy * run.omega_phi[lo + j];
+                response += (cx * cx.transpose() + cy * cy.transpose()) * weight(j);
+            }
+            // Relative to the surface from here on.
+            velocity -= moving;
+            let approach = velocity.dot(&normal);
+            let stiffness = normal.dot(&(response * normal));
+            if approach >= 0.0 || stiffness <= 0.0 {
+                continue;
+            }
+            let lambda = -approach / stiffness;
+            let mut impulse = normal * lambda;
+            let slide = {
+                let v = velocity + response * impulse;
+                v - normal * v.dot(&normal)
+            };
+            let speed = slide.norm();
+            if speed > 0.0 {
+                let t = slide / speed;
+                let t_stiffness = t.dot(&(response * t));
+                if t_stiffness > 0.0 {
+                    let stop = speed / t_stiffness;
+                    impulse -= t * stop.min(c.friction * lambda);
+                }
+            }
+            if !impulse.iter().all(|x| x.is_finite()) {
+                continue;
+            }
+            for j in 1..=k {
+                let arm = lever(j);
+                let w = weight(j);
+                run.omega_theta[lo + j] += axis_x[j].cross(&arm).dot(&impulse) * w;
+                run.omega_phi[lo + j] += axis_y[j].cross(&arm).dot(&impulse) * w;
+            }
+        }
+    }
+}
+
+/// A skeleton's contacts as [`constrain_chain`] takes them: indices into `constraints`
+/// (ascending by node) and, against moving surfaces, each constraint's surface velocity.
+#[derive(Clone, Copy)]
+struct Contacts<'a> {
+    group: &'a [u32],
+    constraints: &'a [VelocityConstraint],
+    surface: Option<&'a [Vector]>,
+}
+
+/// Skeleton `s`'s node positions and velocities from its angles and rates (nodes `r` of `run`).
+fn refresh_skeleton(run: &mut Run<'_>, s: usize, r: Range<usize>) {
+    let mut chain = Refit::from_root(run, s, r.start);
+    for i in r.start + 1..r.end {
+        let (x, y) = (run.theta[i], run.phi[i]);
+        chain.joint(run, i, (x, y), &Bend::new(x, y));
+    }
+}
+
+/// `rate` moved by `change` where that brings it toward zero, never past it.
+#[inline]
+fn toward_zero(rate: Real, change: Real) -> Real {
+    if rate * change >= 0.0 {
+        rate
+    } else if change.abs() >= rate.abs() {
+        0.0
+    } else {
+        rate + change
     }
 }
 
@@ -514,10 +670,12 @@ impl StrandState {
         }
     }
 
-    /// Applies velocity constraints: each constrained node's own joint loses the part of its rate
-    /// that drives the node into the surface (a projection of the joint's two rates, so it never
-    /// speeds a joint up and never adds energy), and friction slows what remains. Distal nodes
-    /// follow rigidly; node velocities are then recomputed from the rates.
+    /// Applies velocity constraints as impulses on the constrained nodes, taken by every joint
+    /// between the root and the node in the model's inertia: the node loses its approach to
+    /// the surface and friction slows its sliding (Coulomb on the impulses), and neither raises
+    /// the kinetic energy (`constrain_chain`). A skeleton's contacts are taken root to tip,
+    /// three rounds. Node velocities are then recomputed from the rates. (A skeleton of more
+    /// than 64 nodes has each contact taken by its own joint alone.)
     pub fn apply_velocity_constraints(
         &mut self,
         constraints: &[VelocityConstraint],
@@ -529,10 +687,8 @@ impl StrandState {
     /// velocity (head frame) of the surface of `constraints[k]` where its node is. A node
     /// approaching its surface loses the approach relative to it, and friction slows its
     /// sliding relative to it, so a surface moving along itself drags the nodes resting on it
-    /// and one moving out pushes them. Each constrained node's own joint takes the change (the
-    /// rate change that best gives it, regularised so that a joint that can hardly move its
-    /// node the way asked is not asked for large rates); the nodes beyond follow rigidly, and
-    /// node velocities are then recomputed from the rates. A `surface` of another length than
+    /// and one moving out pushes them, by the same impulses as
+    /// [`StrandState::apply_velocity_constraints`]. A `surface` of another length than
     /// `constraints` is an error, as is a non-finite velocity; either way nothing changes.
     pub fn apply_velocity_constraints_on_surfaces(
         &mut self,
@@ -607,17 +763,117 @@ impl StrandState {
         // Within each group, by node; a node's constraints keep their order (a group lists
         // them ascending, so the index breaks ties as a stable sort would).
         sort_groups_by_node(&mut order, &groups, constraints);
+        let mut inverse_inertia = std::mem::take(&mut self.inertia_scratch);
+        self.inverse_joint_inertia(&touched, &mut inverse_inertia);
         let (run, offsets, counts) = self.run_with_layout();
         let (order_ref, groups_ref, touched_ref) = (&order, &groups, &touched);
+        let inertia_ref = &inverse_inertia;
         for_each_skeleton(run, &touched, offsets, &|run, k| {
             let s = touched_ref[k] as usize;
             let r = run.local_nodes(s, offsets, counts);
             let group = &order_ref[groups_ref[k] as usize..groups_ref[k + 1] as usize];
-            constrain_and_refresh(run, s, r, group, constraints, surface);
+            constrain_and_refresh(run, s, r, group, constraints, surface, inertia_ref);
         });
         self.order_scratch = order;
         self.group_scratch = groups;
         self.touched_scratch = touched;
+        self.inertia_scratch = inverse_inertia;
+        Ok(())
+    }
+
+    /// Per node slot of the skeletons listed, the inverse of its joint's inertia as the step
+    /// uses it with the chain torque (the dry and wet mass beyond the joint about its pivot, in
+    /// the rest shape, floored at `1e-2 m l^2`), into `out`, grown to the node count.
+    fn inverse_joint_inertia(&self, skeletons: &[u32], out: &mut Vec<Real>) {
+        if out.len() < self.theta.len() {
+            out.resize(self.theta.len(), 0.0);
+        }
+        for &s in skeletons {
+            let r = self.nodes(crate::SkeletonId(s));
+            // Suffix sums from the tip, in f64: sum m, sum m p, sum m |p|^2.
+            let (mut m0, mut m1, mut m2) = (0.0f64, nalgebra::Vector3::<f64>::zeros(), 0.0f64);
+            for i in (r.start + 1..r.end).rev() {
+                let m = f64::from(self.mass[i] + self.wetness[i]);
+                let p = self.rest_points[i].cast::<f64>();
+                m0 += m;
+                m1 += p * m;
+                m2 += m * p.norm_squared();
+                let c = self.rest_points[i - 1].cast::<f64>();
+                let chain = m2 - 2.0 * c.dot(&m1) + m0 * c.norm_squared();
+                let floor = 1e-2 * m * f64::from(self.length[i]).powi(2);
+                let inertia = chain.max(floor);
+                out[i] = if inertia > 0.0 {
+                    (1.0 / inertia) as Real
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+
+    /// Takes back from the joint rates the turns made since `theta` and `phi` were recorded
+    /// (per node, as [`StrandState::theta`] and [`StrandState::phi`] were), on the skeletons
+    /// listed (ascending): where a joint was turned against its rate, as when a push-out undoes
+    /// the last step's motion into a surface, its rate shrinks by that turn over the last step's
+    /// length, never past zero. A turn along the rate changes nothing, so nothing speeds up.
+    /// The nodes' velocities are then recomputed from the rates. Without it, a rate that drove a
+    /// node into the body survived the push-out unchanged, drove it in again the next step, and
+    /// hair lying on the body never came to rest. Before the first step it changes nothing.
+    pub fn absorb_turns(
+        &mut self,
+        theta: &[Real],
+        phi: &[Real],
+        skeletons: &[u32],
+    ) -> Result<(), DynamicsError> {
+        let count = self.theta.len();
+        if theta.len() != count || phi.len() != count {
+            return Err(DynamicsError::OutOfRange {
+                name: "recorded angles (count)",
+                value: theta.len().min(phi.len()) as f64,
+                expected: "one per node slot",
+            });
+        }
+        if let Some(&s) = skeletons
+            .iter()
+            .find(|&&s| s as usize >= self.offsets.len())
+        {
+            return Err(DynamicsError::UnknownSkeleton {
+                skeleton: s as usize,
+            });
+        }
+        if skeletons.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(DynamicsError::OutOfRange {
+                name: "skeletons (order)",
+                value: skeletons.len() as f64,
+                expected: "ascending, each once",
+            });
+        }
+        let dt = self.last_dt;
+        if dt <= 0.0 {
+            return Ok(());
+        }
+        let inv_dt = 1.0 / dt;
+        let (run, offsets, counts) = self.run_with_layout();
+        for_each_skeleton(run, skeletons, offsets, &|run, k| {
+            let s = skeletons[k] as usize;
+            let r = run.local_nodes(s, offsets, counts);
+            let g = offsets[s] as usize;
+            let mut turned = false;
+            for (j, i) in r.clone().enumerate().skip(1) {
+                let (dx, dy) = (
+                    (run.theta[i] - theta[g + j]) * inv_dt,
+                    (run.phi[i] - phi[g + j]) * inv_dt,
+                );
+                if dx != 0.0 || dy != 0.0 {
+                    run.omega_theta[i] = toward_zero(run.omega_theta[i], dx);
+                    run.omega_phi[i] = toward_zero(run.omega_phi[i], dy);
+                    turned = true;
+                }
+            }
+            if turned {
+                refresh_skeleton(run, s, r);
+            }
+        });
         Ok(())
     }
 

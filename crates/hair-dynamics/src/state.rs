@@ -157,6 +157,8 @@ pub struct StrandState {
     pub(crate) positions: Vec<Point>,
     pub(crate) velocities: Vec<Vector>,
     pub(crate) steps: u64,
+    /// The step length of the last [`StrandState::step`] (s; 0 before the first).
+    pub(crate) last_dt: Real,
     pub(crate) bonds: Vec<crate::Bond>,
     pub(crate) force_scratch: Vec<Vector>,
     /// Per node, a response's target; read only where `moved_scratch` is set (which is all
@@ -171,6 +173,8 @@ pub struct StrandState {
     /// Constraint indices grouped by skeleton, and where each skeleton's group starts.
     pub(crate) order_scratch: Vec<u32>,
     pub(crate) group_scratch: Vec<u32>,
+    /// Per node slot, the inverse of its joint's inertia, while velocity constraints run.
+    pub(crate) inertia_scratch: Vec<Real>,
 }
 
 /// `clone_from` copies into the buffers already held (a reset or a rollback takes no new
@@ -215,6 +219,7 @@ impl Clone for StrandState {
             positions,
             velocities,
             steps,
+            last_dt,
             bonds,
             force_scratch,
             target_scratch,
@@ -224,6 +229,7 @@ impl Clone for StrandState {
             slot_scratch,
             order_scratch,
             group_scratch,
+            inertia_scratch,
         } = self;
         offsets.clone_from(&from.offsets);
         counts.clone_from(&from.counts);
@@ -255,6 +261,7 @@ impl Clone for StrandState {
         positions.clone_from(&from.positions);
         velocities.clone_from(&from.velocities);
         *steps = from.steps;
+        *last_dt = from.last_dt;
         bonds.clone_from(&from.bonds);
         force_scratch.clone_from(&from.force_scratch);
         target_scratch.clone_from(&from.target_scratch);
@@ -264,6 +271,7 @@ impl Clone for StrandState {
         slot_scratch.clone_from(&from.slot_scratch);
         order_scratch.clone_from(&from.order_scratch);
         group_scratch.clone_from(&from.group_scratch);
+        inertia_scratch.clone_from(&from.inertia_scratch);
     }
 }
 

@@ -187,18 +187,15 @@ fn velocity_constraints_remove_the_approach_and_apply_friction() {
             )
             .unwrap();
     }
-    // The constrained node's own joint loses the rate that drives the node into the surface:
-    // next to the clamped root that is all of the node's approach; at the tip, the part the
-    // node's own joint causes, so the approach shrinks. Joint rates never grow.
+    // A contact is taken by every joint above its node: next to the clamped root and at the
+    // tip alike the node's approach is removed, and the strand's kinetic energy never grows.
     let first = state.nodes(id).start + 1;
     let tip = state.nodes(id).end - 1;
+    let env = Environment::default();
     for node in [first, tip] {
-        let (v, parent) = (state.velocities()[node], state.velocities()[node - 1]);
-        let rate = state.omega_theta()[node].hypot(state.omega_phi()[node]);
-        assert!(
-            v.y - parent.y < 0.0,
-            "node {node} should approach relative to its parent"
-        );
+        let v = state.velocities()[node];
+        assert!(v.y < 0.0, "node {node} should approach the surface");
+        let before = state.model_energy(&env, TorqueModel::Chain);
         state
             .apply_velocity_constraints(&[VelocityConstraint {
                 node: node as u32,
@@ -206,23 +203,19 @@ fn velocity_constraints_remove_the_approach_and_apply_friction() {
                 friction: 0.0,
             }])
             .unwrap();
-        let (after, parent_after) = (state.velocities()[node], state.velocities()[node - 1]);
-        let _ = parent_after;
+        let after = state.velocities()[node];
+        // The fit is regularised by 1 % of the joints' response: a little approach may stay.
         assert!(
-            after.y >= v.y - 1e-6,
-            "node {node}: the approach grew from {} to {}",
-            v.y,
-            after.y
+            after.y >= 0.03 * v.y,
+            "node {node}: normal velocity {} from {}",
+            after.y,
+            v.y
         );
-        assert!(state.omega_theta()[node].hypot(state.omega_phi()[node]) <= rate * (1.0 + 1e-6));
-        if node == first {
-            assert!(
-                after.y.abs() <= 1e-6,
-                "node {node}: normal velocity {} from {}",
-                after.y,
-                v.y
-            );
-        }
+        let energy = state.model_energy(&env, TorqueModel::Chain);
+        assert!(
+            energy <= before + 1e-12,
+            "node {node}: energy {energy} from {before}"
+        );
     }
 }
 
@@ -273,14 +266,14 @@ fn surface_constraints_act_on_the_velocity_relative_to_the_moving_surface() {
         "no friction, yet z went {}",
         after.z
     );
-    // A floor sliding along z drags it by friction toward its speed, never past it; without
-    // friction it does not drag it at all. Next to the root the drag turns the whole strand,
-    // so the node takes its share of the strand's moment of inertia (1/55 of the segments'
-    // squared reach); the tip takes all of it.
+    // A floor sliding along z drags it by friction toward its speed, never past it (but for
+    // rounding between the normal and friction impulses, 0.1 %); without friction it does not
+    // drag it at all. Next to the root the impulse has to turn the whole strand; at the tip it
+    // turns the light last joints, so the tip is dragged far more.
     let slide = Vector::new(0.0, 0.0, 0.5);
     let dragged = apply(slide, 1.0);
     assert!(
-        dragged.z > falling.z + 1e-4 && dragged.z <= 0.5,
+        dragged.z > falling.z + 1e-4 && dragged.z <= 0.5 * 1.001,
         "dragged to {}",
         dragged.z
     );
@@ -300,8 +293,8 @@ fn surface_constraints_act_on_the_velocity_relative_to_the_moving_surface() {
         .unwrap();
     let (from, to) = (state.velocities()[tip].z, s.velocities()[tip].z);
     assert!(
-        to > from + 10.0 * (dragged.z - falling.z) && to <= 0.5,
-        "tip dragged from {from} to {to}"
+        to - from > 4.0 * (dragged.z - falling.z) && to <= 0.5 * 1.001,
+        "tip dragged from {from} to {to}; next to the root {} to {}", falling.z, dragged.z
     );
     // One surface velocity per constraint, finite: otherwise an error and nothing changes.
     let before = state.state_hash();

@@ -746,6 +746,7 @@ impl StrandState {
         self.force_scratch = force;
         let step = self.steps;
         self.steps += 1;
+        self.last_dt = settings.dt;
         debug_assert_eq!(nodes, self.theta.len());
         if let Some((skeleton, node)) = bad {
             return Err(DynamicsError::NonFiniteState {
