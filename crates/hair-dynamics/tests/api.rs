@@ -294,7 +294,9 @@ fn surface_constraints_act_on_the_velocity_relative_to_the_moving_surface() {
     let (from, to) = (state.velocities()[tip].z, s.velocities()[tip].z);
     assert!(
         to - from > 4.0 * (dragged.z - falling.z) && to <= 0.5 * 1.001,
-        "tip dragged from {from} to {to}; next to the root {} to {}", falling.z, dragged.z
+        "tip dragged from {from} to {to}; next to the root {} to {}",
+        falling.z,
+        dragged.z
     );
     // One surface velocity per constraint, finite: otherwise an error and nothing changes.
     let before = state.state_hash();
