@@ -28,7 +28,7 @@ use hair_collide::{BodyConstraint, CollisionSettings};
 use hair_dynamics::{Bond, CutPoint, HeadMotion, Point, Real, SkeletonId, StrandState, Vector};
 use hair_grid::{Cone, Grid, InfluenceVolume, Section};
 use hair_lod::{Hierarchy, InheritScratch};
-use hair_ssv::MeshBody;
+use hair_ssv::{CollisionMethod, MeshBody};
 
 /// Counters of the salon, per step (serialized flat into the per-frame metrics).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -538,6 +538,14 @@ impl Salon {
         let dt = inp.dt;
         let mut hits = std::mem::take(&mut self.hits);
         self.sections_in_cone(state, inp, &cone, &mut hits)?;
+        if let Some(body) = inp.body {
+            hits.retain(|&sec| {
+                Self::live(state, inp.sections, sec as usize).is_none_or(|(id, k)| {
+                    let p = state.positions()[state.nodes(id).start + k];
+                    in_sight(body, inp.collision.method, &p, &cone.apex)
+                })
+            });
+        }
         self.stats.tool_sections += hits.len();
         self.touch(state, inp.sections, &hits);
         let axis = cone.axis.normalize();
@@ -962,6 +970,30 @@ impl Salon {
 }
 
 /// Where segment `a -> b` crosses the triangle: the fraction along it, if it does.
+/// Spacing (m) of the samples along the line from a tool to a point, and the depth inside the
+/// body (m) at which a sample counts as blocked. The body's distance answers within 2 cm of its
+/// surface, so a line into the body meets a sample between 5 mm and 2 cm deep.
+const SIGHT_STEP: Real = 0.01;
+const SIGHT_DEPTH: Real = 0.005;
+
+/// Whether a tool at `apex` reaches the hair at `p`: not when the line between them passes
+/// through the body (water, spray, mousse and air do not go through the head to the hair on
+/// its far side). The last 2 cm before `p` are not sampled: hair lies on the body there.
+fn in_sight(body: &MeshBody, method: CollisionMethod, p: &Point, apex: &Point) -> bool {
+    let line = p - apex;
+    let length = line.norm();
+    let clear = length - 0.02;
+    if clear.is_nan() || clear <= 0.0 {
+        return true;
+    }
+    let samples = (clear / SIGHT_STEP).ceil() as usize;
+    (1..=samples).all(|k| {
+        let q = apex + line * ((k as Real * SIGHT_STEP).min(clear) / length);
+        body.distance(method, &q)
+            .is_none_or(|(d, _)| d > -SIGHT_DEPTH)
+    })
+}
+
 fn segment_triangle(a: &Point, b: &Point, t: &[Point; 3]) -> Option<Real> {
     let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
     let da = (a - t[0]).dot(&n);
