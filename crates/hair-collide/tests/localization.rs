@@ -85,13 +85,13 @@ fn hair_creeping_within_its_cells_is_never_frozen_and_still_hair_is() {
         Localization::new(ActivityConfig::default()),
         Localization::uncoupled(ActivityConfig::default()),
     ] {
-        // 5 mm/s: 0.08 mm a step, so the tip never leaves its 5 cm cell; the speed alone must
-        // keep it simulated. The still strand, 20 cm away, freezes after 0.5 s.
-        let run = creep(loc.clone(), 0.2, 5e-3, 1.5, &[]);
+        // 1.5 cm/s, over the speed threshold (1 cm/s): 0.25 mm a step, so the speed must keep
+        // it simulated. The still strand, 20 cm away, freezes after 0.5 s.
+        let run = creep(loc.clone(), 0.2, 1.5e-2, 1.5, &[]);
         assert_eq!(first_frozen(&run, 0), None, "the creeping strand froze");
         let t = first_frozen(&run, 1).expect("still hair freezes");
         assert!((t - 0.5).abs() < 0.05, "froze after {t} s");
-        // Far below the speed threshold (1 mm/s), the creep counts as rest.
+        // Far below the speed threshold, the creep counts as rest.
         assert!(creep(loc, 0.2, 1e-4, 1.5, &[]).last().expect("updates")[0]);
     }
 }

@@ -13,7 +13,10 @@ pub struct ActivityConfig {
     /// Seconds a cell must stay quiet (no section entering or leaving, every section slower than
     /// `speed_threshold`, no tool) before it goes dormant. Default 0.5 s.
     pub dormant_after: Real,
-    /// Speeds at or below this (m/s) count as zero velocity. Default 1e-3 m/s.
+    /// Speeds at or below this (m/s) count as zero velocity. Default 1e-2 m/s: 0.17 mm a
+    /// frame at 60 Hz, a fifth of a pixel where a head fills a 720-pixel frame. (Until 2026-12
+    /// it was 1e-3 m/s, under which wet hair settling under its water's weight stayed awake
+    /// for seconds; rigid-body engines put bodies to sleep at a few centimetres a second.)
     pub speed_threshold: Real,
     /// A dormant cell wakes when a section in it feels a force above this (newtons) from an
     /// active neighbouring node. Default 1e-4 N.
@@ -48,7 +51,7 @@ impl Default for ActivityConfig {
     fn default() -> Self {
         Self {
             dormant_after: 0.5,
-            speed_threshold: 1e-3,
+            speed_threshold: 1e-2,
             wake_force: 1e-4,
         }
     }
