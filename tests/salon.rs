@@ -499,6 +499,9 @@ fn tools_do_not_reach_through_the_head() {
             }
         }
     }
-    assert!(near > 50, "only {near} points wet on the side the water comes from");
+    assert!(
+        near > 50,
+        "only {near} points wet on the side the water comes from"
+    );
     assert_eq!(far, 0, "{far} points wet on the far side of the head");
 }
