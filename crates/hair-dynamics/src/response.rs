@@ -143,7 +143,9 @@ impl Refit {
 
 /// The velocity constraints on skeleton `s` (nodes `r` of `run`), `group` their indices into
 /// `constraints` sorted by node (stably: a node's constraints in their order), then its node
-/// positions and velocities from its angles and rates, in one pass root to tip. Each joint's
+/// positions and velocities from its angles and rates. Up to [`MAX_CHAIN`] nodes the contacts
+/// are impulses through the whole chain ([`constrain_chain`]); a longer skeleton has each taken
+/// by its own joint, in one pass root to tip as follows. Each joint's
 /// bend is evaluated once, for the constraints on its node and for the refresh: the same
 /// arithmetic as the joint axes, the constraints and `Run::refresh` one after the other (a
 /// constraint changes only its own joint's rates, which the refresh reads after it, and reads

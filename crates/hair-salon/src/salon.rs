@@ -969,20 +969,21 @@ impl Salon {
     }
 }
 
-/// Where segment `a -> b` crosses the triangle: the fraction along it, if it does.
 /// Spacing (m) of the samples along the line from a tool to a point, and the depth inside the
 /// body (m) at which a sample counts as blocked. The body's distance answers within 2 cm of its
 /// surface, so a line into the body meets a sample between 5 mm and 2 cm deep.
 const SIGHT_STEP: Real = 0.01;
 const SIGHT_DEPTH: Real = 0.005;
+/// Length (m) of the line's end, at the hair, left unsampled: hair lies on the body there.
+const SIGHT_END: Real = 0.02;
 
 /// Whether a tool at `apex` reaches the hair at `p`: not when the line between them passes
 /// through the body (water, spray, mousse and air do not go through the head to the hair on
-/// its far side). The last 2 cm before `p` are not sampled: hair lies on the body there.
+/// its far side). The last [`SIGHT_END`] before `p` is not sampled.
 fn in_sight(body: &MeshBody, method: CollisionMethod, p: &Point, apex: &Point) -> bool {
     let line = p - apex;
     let length = line.norm();
-    let clear = length - 0.02;
+    let clear = length - SIGHT_END;
     if clear.is_nan() || clear <= 0.0 {
         return true;
     }
@@ -994,6 +995,7 @@ fn in_sight(body: &MeshBody, method: CollisionMethod, p: &Point, apex: &Point) -
     })
 }
 
+/// Where segment `a -> b` crosses the triangle: the fraction along it, if it does.
 fn segment_triangle(a: &Point, b: &Point, t: &[Point; 3]) -> Option<Real> {
     let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
     let da = (a - t[0]).dot(&n);
