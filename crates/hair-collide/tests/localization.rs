@@ -98,11 +98,12 @@ fn hair_creeping_within_its_cells_is_never_frozen_and_still_hair_is() {
 
 #[test]
 fn a_still_strand_beside_a_moving_one_sleeps_only_when_strands_do_not_interact() {
-    // 5 mm apart: the strands share every cell.
+    // 5 mm apart: the strands share every cell. Strand 0 creeps at 1.5 cm/s, over the speed
+    // threshold.
     let coupled = creep(
         Localization::new(ActivityConfig::default()),
         5e-3,
-        5e-3,
+        1.5e-2,
         1.5,
         &[],
     );
@@ -114,7 +115,7 @@ fn a_still_strand_beside_a_moving_one_sleeps_only_when_strands_do_not_interact()
     let apart = creep(
         Localization::uncoupled(ActivityConfig::default()),
         5e-3,
-        5e-3,
+        1.5e-2,
         1.5,
         &[],
     );
