@@ -63,14 +63,20 @@ fn step(
     }
 }
 
-/// The two strands in 1 cm cells, at rest long enough (0.5 s) for every cell to be dormant.
-fn settled() -> (Vec<Section>, Grid, Activity) {
+/// The two strands and a grid of 1 cm cells rebuilt over them.
+fn strands_in_cells() -> (Vec<Section>, Grid) {
     let secs = strands(0.0);
     let mut grid = Grid::new(GridConfig {
         cell_size: Some(0.01),
         ..GridConfig::default()
     });
     grid.rebuild(&secs).unwrap();
+    (secs, grid)
+}
+
+/// The two strands in 1 cm cells, at rest long enough (0.5 s) for every cell to be dormant.
+fn settled() -> (Vec<Section>, Grid, Activity) {
+    let (secs, grid) = strands_in_cells();
     let mut act = Activity::new(config());
     let rest = vec![0.0; secs.len()];
     for _ in 0..5 {
@@ -81,12 +87,7 @@ fn settled() -> (Vec<Section>, Grid, Activity) {
 
 #[test]
 fn rest_then_poke_then_rest() {
-    let secs = strands(0.0);
-    let mut grid = Grid::new(GridConfig {
-        cell_size: Some(0.01),
-        ..GridConfig::default()
-    });
-    grid.rebuild(&secs).unwrap();
+    let (secs, grid) = strands_in_cells();
     let mut act = Activity::new(config());
     let rest = vec![0.0; secs.len()];
     // New cells start active; 0.35 s of rest (4 steps of 0.1 s) makes them dormant.
