@@ -170,6 +170,10 @@ struct JointSweep {
     prefix: V3,
     /// The unknowns.
     x: [L; 2],
+    /// The joint's angles, rates and segment length at the start of the step, gathered once.
+    q: [L; 2],
+    w: [L; 2],
+    len: L,
 }
 
 /// Per-node lane buffers, grown to the longest group seen and then reused.
@@ -333,8 +337,10 @@ fn step_group_in(
         let ay = rot.mul_v(bend.axis_y);
         rot = rot.mul_m(&bend.rotation);
         let t = rot.column(2);
-        let seg = t * node(run.length, &in_run, i);
+        let len = node(run.length, &in_run, i);
+        let seg = t * len;
         let joint = &mut ls.joints[i - 1];
+        (joint.q, joint.w, joint.len) = ([x, y], [wx, wy], len);
         joint.a = [ax, ay];
         joint.prefix = omega;
         omega = omega + ax * wx + ay * wy;
@@ -357,8 +363,13 @@ fn step_group_in(
     );
     let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
     let (mut gain_m, mut gain_r, mut suffix_w) = (M3::default(), V3::default(), V3::default());
+    let mut rest_next = node3(sh.rest_points, &global, n - 1);
     for i in (1..n).rev() {
         let j = i - 1;
+        let (q, w, len) = {
+            let joint = &ls.joints[j];
+            (joint.q, joint.w, joint.len)
+        };
         let pivot = ls.pos[i - 1];
         let xi = ls.pos[i];
         let mi = node(sh.mass, &global, i) + node(sh.wetness, &global, i);
@@ -369,7 +380,7 @@ fn step_group_in(
             let u = air - ls.vel[i];
             let t = ls.tangent[i];
             let across = u - t * u.dot(t);
-            fi = fi + across * (drag * node(run.length, &in_run, i));
+            fi = fi + across * (drag * len);
         }
         if has_fields {
             let m: [f32; LANES] = mi.to_array();
@@ -379,8 +390,9 @@ fn step_group_in(
             fi = fi + node3(sh.force, &global, i);
         }
         let seg = xi - pivot;
-        let rp = node3(sh.rest_points, &global, i);
+        let rp = rest_next;
         let rc = node3(sh.rest_points, &global, i - 1);
+        rest_next = rc;
         s_m += mi;
         s_mp = s_mp + rp * mi;
         s_mp2 += rp.norm_squared() * mi;
@@ -402,7 +414,6 @@ fn step_group_in(
             own.add_outer(xi, fi);
             (p, s, sigma) = (own, fi, fi.dot(xi));
         }
-        let len = node(run.length, &in_run, i);
         let inertia = inertia.max(floor * mi * len * len);
         ls.tension[i] = load.dot(ls.tangent[i]);
         let damping = node(sh.damping, &global, i);
@@ -410,11 +421,6 @@ fn step_group_in(
         let rest = [
             node(sh.rest_theta, &global, i),
             node(sh.rest_phi, &global, i),
-        ];
-        let q = [node(run.theta, &in_run, i), node(run.phi, &in_run, i)];
-        let w = [
-            node(run.omega_theta, &in_run, i),
-            node(run.omega_phi, &in_run, i),
         ];
         let joint = &mut ls.joints[j];
         let a = joint.a;
@@ -519,21 +525,13 @@ fn step_group_in(
     let members_len = members.len();
     for i in 1..n {
         let joint = &ls.joints[i - 1];
-        let w = [
-            node(run.omega_theta, &in_run, i) + joint.x[0],
-            node(run.omega_phi, &in_run, i) + joint.x[1],
-        ];
-        let q = [
-            node(run.theta, &in_run, i) + h * w[0],
-            node(run.phi, &in_run, i) + h * w[1],
-        ];
+        let w = [joint.w[0] + joint.x[0], joint.w[1] + joint.x[1]];
+        let q = [joint.q[0] + h * w[0], joint.q[1] + h * w[1]];
         // Quasi-static stretch springs: each segment takes the length its tension asks for.
         let k_stretch = node(sh.k_stretch, &global, i);
         let stretched =
             node(sh.rest_length, &global, i) * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
-        let len = k_stretch
-            .simd_gt(L::ZERO)
-            .select(stretched, node(run.length, &in_run, i));
+        let len = k_stretch.simd_gt(L::ZERO).select(stretched, joint.len);
         bad |= !(q[0].is_finite() & q[1].is_finite() & w[0].is_finite() & w[1].is_finite());
         bad |= !len.is_finite();
         let bend = LaneBend::new(q[0], q[1]);
