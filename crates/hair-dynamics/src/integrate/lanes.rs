@@ -250,6 +250,45 @@ pub(super) fn step_group(
     })
 }
 
+/// Asks the memory system for `field[base..base + n]` of every lane's strand, a cache line at a
+/// time. A group reads some twenty fields of eight strands each, every one its own stream in
+/// memory: more than the hardware prefetchers follow, so without this most first reads of a
+/// step wait on memory one after another. The hints are issued together up front and do not
+/// wait.
+#[inline(always)]
+fn prefetch_strands<T>(field: &[T], base: &[usize; LANES], n: usize) {
+    #[cfg(target_arch = "x86_64")]
+    for &b in base {
+        let Some(strand) = field.get(b..b + n) else {
+            continue;
+        };
+        // One element a 64-byte line, and the last, for a range that straddles a line.
+        let per_line = (64 / std::mem::size_of::<T>()).max(1);
+        for at in (0..n)
+            .step_by(per_line)
+            .chain(std::iter::once(n.saturating_sub(1)))
+        {
+            if let Some(x) = strand.get(at) {
+                prefetch(x);
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (field, base, n);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+#[expect(
+    unsafe_code,
+    reason = "a prefetch hint reads nothing and cannot fault; the address is a live reference"
+)]
+fn prefetch<T>(x: &T) {
+    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+    // SAFETY: `_mm_prefetch` only hints the cache; SSE is part of every x86-64 target.
+    unsafe { _mm_prefetch::<_MM_HINT_T0>(std::ptr::from_ref(x).cast()) };
+}
+
 /// A scalar function of a point, evaluated lane by lane (the environment's air and fields).
 #[inline(always)]
 fn per_lane(p: V3, f: impl Fn(usize, Vector) -> Vector) -> V3 {
@@ -284,6 +323,29 @@ fn step_group_in(
     let global: [usize; LANES] =
         std::array::from_fn(|l| sh.state_offsets[run.first + local[l]] as usize);
     let in_run: [usize; LANES] = std::array::from_fn(|l| global[l] - run.node_base);
+    for field in [
+        &*run.theta,
+        &*run.phi,
+        &*run.omega_theta,
+        &*run.omega_phi,
+        &*run.length,
+    ] {
+        prefetch_strands(field, &in_run, n);
+    }
+    for field in [
+        sh.mass,
+        sh.wetness,
+        sh.damping,
+        sh.k_theta,
+        sh.k_phi,
+        sh.rest_theta,
+        sh.rest_phi,
+        sh.k_stretch,
+        sh.rest_length,
+    ] {
+        prefetch_strands(field, &global, n);
+    }
+    prefetch_strands(sh.rest_points, &global, n);
     let node = |field: &[f32], base: &[usize; LANES], i: usize| -> L {
         L::from(std::array::from_fn::<f32, LANES, _>(|l| field[base[l] + i]))
     };
@@ -556,44 +618,26 @@ fn step_group_in(
             *o = LaneOutcome::NonFinite;
         }
     }
-    // Lane by lane back to the run: only the strands that succeeded.
+    // Lane by lane back to the run: only the strands that succeeded, each written from root to
+    // tip (a few streams at a time, not eight strands' worth at once).
     for l in 0..members_len {
-        if outcome[l] == LaneOutcome::Done {
-            run.positions[in_run[l]] = run.roots[local[l]].position;
-            run.velocities[in_run[l]] = Vector::zeros();
+        if outcome[l] != LaneOutcome::Done {
+            continue;
         }
-    }
-    for i in 1..n {
-        let out = &ls.out[i];
-        let (q0, q1, w0, w1, ln) = (
-            out.q[0].to_array(),
-            out.q[1].to_array(),
-            out.w[0].to_array(),
-            out.w[1].to_array(),
-            out.len.to_array(),
-        );
-        let (px, py, pz) = (
-            out.pos.x.to_array(),
-            out.pos.y.to_array(),
-            out.pos.z.to_array(),
-        );
-        let (vx, vy, vz) = (
-            out.vel.x.to_array(),
-            out.vel.y.to_array(),
-            out.vel.z.to_array(),
-        );
-        for l in 0..members_len {
-            if outcome[l] != LaneOutcome::Done {
-                continue;
-            }
-            let at = in_run[l] + i;
-            run.theta[at] = q0[l];
-            run.phi[at] = q1[l];
-            run.omega_theta[at] = w0[l];
-            run.omega_phi[at] = w1[l];
-            run.length[at] = ln[l];
-            run.positions[at] = Point::new(px[l], py[l], pz[l]);
-            run.velocities[at] = Vector::new(vx[l], vy[l], vz[l]);
+        let base = in_run[l];
+        run.positions[base] = run.roots[local[l]].position;
+        run.velocities[base] = Vector::zeros();
+        for i in 1..n {
+            let out = &ls.out[i];
+            let lane = |v: &L| v.as_array()[l];
+            let at = base + i;
+            run.theta[at] = lane(&out.q[0]);
+            run.phi[at] = lane(&out.q[1]);
+            run.omega_theta[at] = lane(&out.w[0]);
+            run.omega_phi[at] = lane(&out.w[1]);
+            run.length[at] = lane(&out.len);
+            run.positions[at] = Point::new(lane(&out.pos.x), lane(&out.pos.y), lane(&out.pos.z));
+            run.velocities[at] = Vector::new(lane(&out.vel.x), lane(&out.vel.y), lane(&out.vel.z));
         }
     }
     outcome
