@@ -107,27 +107,66 @@ impl Default for Wind {
 impl Wind {
     /// Air velocity (m/s, world) at world point `p` and time `t` (s).
     pub fn velocity(&self, p: &Point, t: Real) -> Vector {
+        self.at_time(t).velocity(p)
+    }
+
+    /// The field at time `t`: what does not depend on the point, worked out once for the many
+    /// points of a step.
+    fn at_time(&self, t: Real) -> WindAt {
         let dir_norm = self.direction.norm();
         if self.speed == 0.0 || dir_norm == 0.0 {
-            return Vector::zeros();
+            return WindAt::default();
         }
         let dir = self.direction / dir_norm;
         let gust = 1.0 + self.gust * (core::f32::consts::TAU * self.gust_frequency * t).sin();
-        let mut v = dir * (self.speed * gust);
-        if self.turbulence != 0.0 && self.turbulence_scale > 0.0 {
-            let q = p.coords / self.turbulence_scale;
-            let ph = phases(self.seed);
+        let turbulent = self.turbulence != 0.0 && self.turbulence_scale > 0.0;
+        WindAt {
+            mean: dir * (self.speed * gust),
+            turbulence: turbulent.then(|| Turbulence {
+                scale: self.turbulence_scale,
+                phases: phases(self.seed),
+                drift: t * self.speed / self.turbulence_scale,
+                amplitude: self.speed * self.turbulence,
+            }),
+        }
+    }
+}
+
+/// [`Wind`] at one time.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct WindAt {
+    /// The mean flow with its gust (zero without wind).
+    mean: Vector,
+    turbulence: Option<Turbulence>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Turbulence {
+    scale: Real,
+    phases: [Real; 3],
+    drift: Real,
+    amplitude: Real,
+}
+
+impl WindAt {
+    /// Air velocity (m/s, world) at world point `p`.
+    fn velocity(&self, p: &Point) -> Vector {
+        let mut v = self.mean;
+        if let Some(tb) = &self.turbulence {
+            let q = p.coords / tb.scale;
+            let ph = tb.phases;
             // Three plane waves along the axes, each pushing across its own axis, so the field
             // varies smoothly in space and drifts with the mean flow in time.
-            let drift = t * self.speed / self.turbulence_scale;
-            let a = (q.y + ph[0] + drift).sin();
-            let b = (q.z + ph[1] + drift).sin();
-            let c = (q.x + ph[2] + drift).sin();
-            v += Vector::new(a, b, c) * (self.speed * self.turbulence);
+            let a = (q.y + ph[0] + tb.drift).sin();
+            let b = (q.z + ph[1] + tb.drift).sin();
+            let c = (q.x + ph[2] + tb.drift).sin();
+            v += Vector::new(a, b, c) * tb.amplitude;
         }
         v
     }
+}
 
+impl Wind {
     fn validate(&self) -> Result<(), DynamicsError> {
         finite_vec("wind.direction", &self.direction)?;
         non_negative("wind.speed", self.speed)?;
@@ -296,6 +335,7 @@ impl Environment {
             omega: cast(&w),
             alpha: cast(&a),
             env: self,
+            wind: self.wind.at_time(self.time),
             has_air: self.wind.drag > 0.0,
             has_frame_motion: w.norm_squared() > 0.0 || a.norm_squared() > 0.0,
         }
@@ -319,6 +359,8 @@ pub(crate) struct LocalEnv<'a, T: nalgebra::RealField + Copy> {
     /// Head angular acceleration, head frame.
     pub alpha: Vector3<T>,
     pub env: &'a Environment,
+    /// The wind at the step's time.
+    pub wind: WindAt,
     pub has_air: bool,
     pub has_frame_motion: bool,
 }
@@ -328,11 +370,12 @@ impl<T: nalgebra::RealField + Copy> LocalEnv<'_, T> {
     pub fn air_velocity(&self, p: &Vector3<T>) -> Vector3<T> {
         let h = &self.env.head;
         let pf = Vector::new(to_f32(p.x), to_f32(p.y), to_f32(p.z));
-        let pw = h.position + h.rotation * pf;
-        let wind = self.env.wind.velocity(&pw, self.env.time);
+        let turned = h.rotation * pf;
+        let pw = h.position + turned;
+        let wind = self.wind.velocity(&pw);
         // Air velocity seen by an observer moving with the head: subtract the frame's velocity
         // at that point, then express in head coordinates.
-        let frame_vel = h.linear_velocity + h.angular_velocity.cross(&(h.rotation * pf));
+        let frame_vel = h.linear_velocity + h.angular_velocity.cross(&turned);
         cast(&(h.rotation.inverse() * (wind - frame_vel)))
     }
 
