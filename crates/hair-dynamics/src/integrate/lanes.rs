@@ -250,31 +250,49 @@ pub(super) fn step_group(
     })
 }
 
-/// Asks the memory system for `field[base..base + n]` of every lane's strand, a cache line at a
-/// time. A group reads some twenty fields of eight strands each, every one its own stream in
-/// memory: more than the hardware prefetchers follow, so without this most first reads of a
-/// step wait on memory one after another. The hints are issued together up front and do not
-/// wait.
-#[inline(always)]
-fn prefetch_strands<T>(field: &[T], base: &[usize; LANES], n: usize) {
-    #[cfg(target_arch = "x86_64")]
-    for &b in base {
-        let Some(strand) = field.get(b..b + n) else {
-            continue;
-        };
-        // One element a 64-byte line, and the last, for a range that straddles a line.
-        let per_line = (64 / std::mem::size_of::<T>()).max(1);
-        for at in (0..n)
-            .step_by(per_line)
-            .chain(std::iter::once(n.saturating_sub(1)))
-        {
-            if let Some(x) = strand.get(at) {
+/// One field of a group's eight strands, each lane's slice cut to its strand's `n` nodes (so
+/// reading node `i < n` needs no bounds check per lane).
+struct Strands<'a, T>([&'a [T]; LANES]);
+
+impl<'a, T: Copy> Strands<'a, T> {
+    /// `field[base[l]..base[l] + n]` for every lane `l`, asked of memory at once: a group reads
+    /// some twenty fields of eight strands each, every one its own stream in memory, more than
+    /// the hardware prefetchers follow, so without the hints most first reads of a step wait on
+    /// memory one after another. The hints do not wait.
+    #[inline(always)]
+    fn new(field: &'a [T], base: &[usize; LANES], n: usize) -> Self {
+        let lanes: [&'a [T]; LANES] = std::array::from_fn(|l| &field[base[l]..base[l] + n]);
+        #[cfg(target_arch = "x86_64")]
+        for strand in &lanes {
+            // One element a 64-byte line, and the last, for a range that straddles a line.
+            let per_line = (64 / std::mem::size_of::<T>()).max(1);
+            for x in strand.iter().step_by(per_line).chain(strand.last()) {
                 prefetch(x);
             }
         }
+        Self(lanes)
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (field, base, n);
+}
+
+impl Strands<'_, f32> {
+    /// Node `i` of every lane.
+    #[inline(always)]
+    fn at(&self, i: usize) -> L {
+        L::from(std::array::from_fn::<f32, LANES, _>(|l| self.0[l][i]))
+    }
+}
+
+impl Strands<'_, Vector> {
+    /// Node `i` of every lane.
+    #[inline(always)]
+    fn at3(&self, i: usize) -> V3 {
+        let v: [Vector; LANES] = std::array::from_fn(|l| self.0[l][i]);
+        V3 {
+            x: L::from(v.map(|p| p.x)),
+            y: L::from(v.map(|p| p.y)),
+            z: L::from(v.map(|p| p.z)),
+        }
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -323,40 +341,31 @@ fn step_group_in(
     let global: [usize; LANES] =
         std::array::from_fn(|l| sh.state_offsets[run.first + local[l]] as usize);
     let in_run: [usize; LANES] = std::array::from_fn(|l| global[l] - run.node_base);
-    for field in [
-        &*run.theta,
-        &*run.phi,
-        &*run.omega_theta,
-        &*run.omega_phi,
-        &*run.length,
-    ] {
-        prefetch_strands(field, &in_run, n);
-    }
-    for field in [
-        sh.mass,
-        sh.wetness,
-        sh.damping,
-        sh.k_theta,
-        sh.k_phi,
-        sh.rest_theta,
-        sh.rest_phi,
-        sh.k_stretch,
-        sh.rest_length,
-    ] {
-        prefetch_strands(field, &global, n);
-    }
-    prefetch_strands(sh.rest_points, &global, n);
-    let node = |field: &[f32], base: &[usize; LANES], i: usize| -> L {
-        L::from(std::array::from_fn::<f32, LANES, _>(|l| field[base[l] + i]))
-    };
-    let node3 = |field: &[Vector], base: &[usize; LANES], i: usize| -> V3 {
-        let v: [Vector; LANES] = std::array::from_fn(|l| field[base[l] + i]);
-        V3 {
-            x: L::from(v.map(|p| p.x)),
-            y: L::from(v.map(|p| p.y)),
-            z: L::from(v.map(|p| p.z)),
-        }
-    };
+    // Each field of the group, sliced to its strands (and asked of memory now, see
+    // `Strands::new`).
+    let (theta, phi) = (
+        Strands::new(run.theta, &in_run, n),
+        Strands::new(run.phi, &in_run, n),
+    );
+    let omega_theta = Strands::new(run.omega_theta, &in_run, n);
+    let omega_phi = Strands::new(run.omega_phi, &in_run, n);
+    let length = Strands::new(run.length, &in_run, n);
+    let (mass, wetness) = (
+        Strands::new(sh.mass, &global, n),
+        Strands::new(sh.wetness, &global, n),
+    );
+    let damping = Strands::new(sh.damping, &global, n);
+    let (k_theta, k_phi) = (
+        Strands::new(sh.k_theta, &global, n),
+        Strands::new(sh.k_phi, &global, n),
+    );
+    let rest_theta = Strands::new(sh.rest_theta, &global, n);
+    let rest_phi = Strands::new(sh.rest_phi, &global, n);
+    let k_stretch = Strands::new(sh.k_stretch, &global, n);
+    let rest_length = Strands::new(sh.rest_length, &global, n);
+    let rest_points = Strands::new(sh.rest_points, &global, n);
+    let has_external = !sh.force.is_empty();
+    let force = has_external.then(|| Strands::new(sh.force, &global, n));
     let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
     let root_pos = V3 {
         x: L::from(roots.map(|r| r.position.x)),
@@ -378,7 +387,6 @@ fn step_group_in(
             z: L::splat(g.z),
         }
     };
-    let has_external = !sh.force.is_empty();
     let has_air = sh.env.has_air;
     let has_fields = !sh.env.env.fields.is_empty();
     let drag = L::splat(sh.env.env.wind.drag);
@@ -389,17 +397,14 @@ fn step_group_in(
     ls.pos[0] = root_pos;
     ls.vel[0] = V3::default();
     for i in 1..n {
-        let (x, y) = (node(run.theta, &in_run, i), node(run.phi, &in_run, i));
-        let (wx, wy) = (
-            node(run.omega_theta, &in_run, i),
-            node(run.omega_phi, &in_run, i),
-        );
+        let (x, y) = (theta.at(i), phi.at(i));
+        let (wx, wy) = (omega_theta.at(i), omega_phi.at(i));
         let bend = LaneBend::new(x, y);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
         rot = rot.mul_m(&bend.rotation);
         let t = rot.column(2);
-        let len = node(run.length, &in_run, i);
+        let len = length.at(i);
         let seg = t * len;
         let joint = &mut ls.joints[i - 1];
         (joint.q, joint.w, joint.len) = ([x, y], [wx, wy], len);
@@ -425,7 +430,7 @@ fn step_group_in(
     );
     let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
     let (mut gain_m, mut gain_r, mut suffix_w) = (M3::default(), V3::default(), V3::default());
-    let mut rest_next = node3(sh.rest_points, &global, n - 1);
+    let mut rest_next = rest_points.at3(n - 1);
     for i in (1..n).rev() {
         let j = i - 1;
         let (q, w, len) = {
@@ -434,7 +439,7 @@ fn step_group_in(
         };
         let pivot = ls.pos[i - 1];
         let xi = ls.pos[i];
-        let mi = node(sh.mass, &global, i) + node(sh.wetness, &global, i);
+        let mi = mass.at(i) + wetness.at(i);
         let mut fi = gravity * mi;
         if has_air {
             // Drag on the air's velocity across the segment, as `strand::forces` has it.
@@ -448,12 +453,12 @@ fn step_group_in(
             let m: [f32; LANES] = mi.to_array();
             fi = fi + per_lane(xi, |l, x| sh.env.field_force(&x, m[l]));
         }
-        if has_external {
-            fi = fi + node3(sh.force, &global, i);
+        if let Some(force) = &force {
+            fi = fi + force.at3(i);
         }
         let seg = xi - pivot;
         let rp = rest_next;
-        let rc = node3(sh.rest_points, &global, i - 1);
+        let rc = rest_points.at3(i - 1);
         rest_next = rc;
         s_m += mi;
         s_mp = s_mp + rp * mi;
@@ -478,12 +483,9 @@ fn step_group_in(
         }
         let inertia = inertia.max(floor * mi * len * len);
         ls.tension[i] = load.dot(ls.tangent[i]);
-        let damping = node(sh.damping, &global, i);
-        let k = [node(sh.k_theta, &global, i), node(sh.k_phi, &global, i)];
-        let rest = [
-            node(sh.rest_theta, &global, i),
-            node(sh.rest_phi, &global, i),
-        ];
+        let damping = damping.at(i);
+        let k = [k_theta.at(i), k_phi.at(i)];
+        let rest = [rest_theta.at(i), rest_phi.at(i)];
         let joint = &mut ls.joints[j];
         let a = joint.a;
         // The Jacobian's generators (`strand::load_column_generator`, `load_row_generator`).
@@ -590,9 +592,8 @@ fn step_group_in(
         let w = [joint.w[0] + joint.x[0], joint.w[1] + joint.x[1]];
         let q = [joint.q[0] + h * w[0], joint.q[1] + h * w[1]];
         // Quasi-static stretch springs: each segment takes the length its tension asks for.
-        let k_stretch = node(sh.k_stretch, &global, i);
-        let stretched =
-            node(sh.rest_length, &global, i) * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
+        let k_stretch = k_stretch.at(i);
+        let stretched = rest_length.at(i) * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
         let len = k_stretch.simd_gt(L::ZERO).select(stretched, joint.len);
         bad |= !(q[0].is_finite() & q[1].is_finite() & w[0].is_finite() & w[1].is_finite());
         bad |= !len.is_finite();
