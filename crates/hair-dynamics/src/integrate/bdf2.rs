@@ -32,7 +32,7 @@ pub(crate) struct Previous<'a, T: RealField + Copy> {
 
 /// Largest local error (rad, BDF2's estimate on any angle) a BDF2 step may make; a step that
 /// exceeds it is redone as the coupled step (backward Euler) from the same state.
-const ERROR_TOLERANCE: f64 = 0.01;
+pub(super) const ERROR_TOLERANCE: f64 = 0.01;
 
 /// One BDF2 step of a strand whose torques and Jacobian sums at `y_n` (`q`, `w`, `root`) are in
 /// `sc`, and `y_n` itself in `sc.q0`, `sc.w0`. `frame_spin` as in the coupled step. A free root's
@@ -129,7 +129,18 @@ pub(super) fn history_tag(
     root: &crate::state::RootState,
     dt: crate::Real,
 ) -> u64 {
-    let mut tag = 0xcbf2_9ce4_8422_2325_u64 ^ q.len() as u64;
+    history_tag_of(q.len(), q.iter().chain(w).copied(), root, dt)
+}
+
+/// [`history_tag`] of the `m2` coordinates `values` (the interleaved angles, then the
+/// interleaved rates), from wherever they are stored.
+pub(super) fn history_tag_of(
+    m2: usize,
+    values: impl Iterator<Item = crate::Real>,
+    root: &crate::state::RootState,
+    dt: crate::Real,
+) -> u64 {
+    let mut tag = 0xcbf2_9ce4_8422_2325_u64 ^ m2 as u64;
     let mut mix = |x: crate::Real| {
         tag = (tag.rotate_left(23) ^ u64::from(x.to_bits())).wrapping_mul(0x9e37_79b9_7f4a_7c15);
     };
@@ -140,6 +151,6 @@ pub(super) fn history_tag(
         .chain(root.velocity.iter())
         .chain(root.rotation.iter())
         .for_each(|x| mix(*x));
-    q.iter().chain(w).for_each(|x| mix(*x));
+    values.for_each(mix);
     tag | 1
 }

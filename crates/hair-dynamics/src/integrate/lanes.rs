@@ -23,7 +23,7 @@
 //! velocities. A lane whose check fails, or whose state goes non-finite, is left untouched and
 //! redone by the scalar step (the check's failures counted as dense fallbacks).
 
-use super::{Integrator, LinearSolver, Shared, StepSettings, TorqueModel};
+use super::{Integrator, LinearSolver, Shared, StepSettings, TorqueModel, bdf2};
 use crate::run::Run;
 use crate::{Point, Vector};
 use std::cell::RefCell;
@@ -174,6 +174,11 @@ struct JointSweep {
     q: [L; 2],
     w: [L; 2],
     len: L,
+    /// BDF2 only: the rates the right-hand side reads, `w + a / b`, the shift of the angles
+    /// `a = (q_n - q_{n-1}) / 3` and the previous rates (`a` zero in a lane without history).
+    w_rhs: [L; 2],
+    shift: [L; 2],
+    w_prev: [L; 2],
 }
 
 /// Per-node lane buffers, grown to the longest group seen and then reused.
@@ -219,8 +224,10 @@ thread_local! {
 /// structured solve, with no turning or accelerating-in-rotation head.
 pub(super) fn covers(sh: &Shared<'_>) -> bool {
     let s = &sh.settings;
-    s.integrator == Integrator::ImplicitCoupled
-        && s.solver == LinearSolver::Structured
+    matches!(
+        s.integrator,
+        Integrator::ImplicitCoupled | Integrator::ImplicitBdf2
+    ) && s.solver == LinearSolver::Structured
         && !sh.env.has_frame_motion
 }
 
@@ -233,6 +240,9 @@ pub(super) enum LaneOutcome {
     Declined,
     /// Went non-finite: redo by the scalar step, which restores and reports it.
     NonFinite,
+    /// BDF2's error estimate exceeded its bound: redo by the scalar step, which falls back to
+    /// the coupled step as its own BDF2 step does, and counts it.
+    Redo,
 }
 
 /// Advances the strands `members` (local indices into `run`, all attached, all of `n` nodes, at
@@ -319,6 +329,14 @@ fn per_lane(p: V3, f: impl Fn(usize, Vector) -> Vector) -> V3 {
     }
 }
 
+/// The coordinates of the strand at `lo` in `run` (`n` nodes) in the order BDF2's history tag
+/// reads them: the angles interleaved, then the rates interleaved.
+fn coordinates<'a>(run: &'a Run<'_>, lo: usize, n: usize) -> impl Iterator<Item = f32> + 'a {
+    let angles = (lo + 1..lo + n).flat_map(|i| [run.theta[i], run.phi[i]]);
+    let rates = (lo + 1..lo + n).flat_map(|i| [run.omega_theta[i], run.omega_phi[i]]);
+    angles.chain(rates)
+}
+
 /// Lane `l`'s strand: `members[l]`, or the last member in a spare lane.
 #[inline(always)]
 fn member(members: &[usize], l: usize) -> usize {
@@ -334,13 +352,25 @@ fn step_group_in(
 ) -> [LaneOutcome; LANES] {
     let settings: &StepSettings = &sh.settings;
     let chain = settings.torque == TorqueModel::Chain;
-    let h = L::splat(settings.dt);
-    let h2 = h * h;
+    let bdf2 = settings.integrator == Integrator::ImplicitBdf2;
     // Where each lane's strand starts in the run's slices and in the shared arrays.
     let local: [usize; LANES] = std::array::from_fn(|l| member(members, l));
     let global: [usize; LANES] =
         std::array::from_fn(|l| sh.state_offsets[run.first + local[l]] as usize);
     let in_run: [usize; LANES] = std::array::from_fn(|l| global[l] - run.node_base);
+    // BDF2 reads a strand's previous step only if the strand is as its last BDF2 step left it
+    // (`bdf2::history_tag`); a lane without that history takes the coupled step, `b = h`.
+    let m2 = 2 * (n - 1);
+    let history: [bool; LANES] = std::array::from_fn(|l| {
+        let (lo, rs) = (in_run[l], &run.roots[local[l]]);
+        bdf2 && rs.history != 0
+            && rs.history == bdf2::history_tag_of(m2, coordinates(run, lo, n), rs, settings.dt)
+    });
+    let b_step = (settings.dt + settings.dt) / 3.0;
+    let h = L::from(history.map(|has| if has { b_step } else { settings.dt }));
+    let h2 = h * h;
+    let has_history = L::from(history.map(|has| if has { 1.0 } else { 0.0 })).simd_gt(L::ZERO);
+    let third = L::splat(3.0);
     // Each field of the group, sliced to its strands (and asked of memory now, see
     // `Strands::new`).
     let (theta, phi) = (
@@ -366,6 +396,15 @@ fn step_group_in(
     let rest_points = Strands::new(sh.rest_points, &global, n);
     let has_external = !sh.force.is_empty();
     let force = has_external.then(|| Strands::new(sh.force, &global, n));
+    let previous = bdf2.then(|| {
+        [
+            &*run.prev_theta,
+            &*run.prev_phi,
+            &*run.prev_omega_theta,
+            &*run.prev_omega_phi,
+        ]
+        .map(|field| Strands::new(field, &in_run, n))
+    });
     let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
     let root_pos = V3 {
         x: L::from(roots.map(|r| r.position.x)),
@@ -394,11 +433,23 @@ fn step_group_in(
     // Pass 1, root to tip: kinematics and the prefix sums of A w.
     let mut rot = root_rot;
     let mut omega = V3::default();
+    let mut omega_rhs = V3::default();
     ls.pos[0] = root_pos;
     ls.vel[0] = V3::default();
     for i in 1..n {
         let (x, y) = (theta.at(i), phi.at(i));
         let (wx, wy) = (omega_theta.at(i), omega_phi.at(i));
+        // BDF2 (`integrate::bdf2`): the coupled system with `h -> b`, the rates on the right
+        // `w + a / b`, and the torque `tau + I c / b` (pass 2).
+        let (shift, w_prev, w_rhs) = match &previous {
+            Some([pq0, pq1, pw0, pw1]) => {
+                let shift = [(x - pq0.at(i)) / third, (y - pq1.at(i)) / third]
+                    .map(|a| has_history.select(a, L::ZERO));
+                let w_prev = [pw0.at(i), pw1.at(i)];
+                (shift, w_prev, [wx + shift[0] / h, wy + shift[1] / h])
+            }
+            None => ([L::ZERO; 2], [L::ZERO; 2], [wx, wy]),
+        };
         let bend = LaneBend::new(x, y);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
@@ -409,7 +460,13 @@ fn step_group_in(
         let joint = &mut ls.joints[i - 1];
         (joint.q, joint.w, joint.len) = ([x, y], [wx, wy], len);
         joint.a = [ax, ay];
-        joint.prefix = omega;
+        if bdf2 {
+            (joint.shift, joint.w_prev, joint.w_rhs) = (shift, w_prev, w_rhs);
+            joint.prefix = omega_rhs;
+            omega_rhs = omega_rhs + ax * w_rhs[0] + ay * w_rhs[1];
+        } else {
+            joint.prefix = omega;
+        }
         omega = omega + ax * wx + ay * wy;
         ls.tangent[i] = t;
         ls.pos[i] = ls.pos[i - 1] + seg;
@@ -497,14 +554,19 @@ fn step_group_in(
             gain_r = V3::default();
             suffix_w = V3::default();
         }
-        suffix_w = suffix_w + v[0] * w[0] + v[1] * w[1];
+        let w_rhs = if bdf2 { joint.w_rhs } else { w };
+        suffix_w = suffix_w + v[0] * w_rhs[0] + v[1] * w_rhs[1];
         let mut d = [L::ZERO; 2];
         let mut b = [L::ZERO; 2];
         for t in 0..2 {
-            let tau = a[t].dot(torque) - k[t] * (q[t] - rest[t]) - damping * w[t];
+            let mut tau = a[t].dot(torque) - k[t] * (q[t] - rest[t]) - damping * w[t];
+            if bdf2 {
+                let c = has_history.select((w[t] - joint.w_prev[t]) / third, L::ZERO);
+                tau += inertia * c / h;
+            }
             let jw = wg[t].dot(joint.prefix) + a[t].dot(suffix_w);
             d[t] = inertia + h * damping + h2 * k[t];
-            b[t] = h * tau + h2 * (jw - k[t] * w[t]);
+            b[t] = h * tau + h2 * (jw - k[t] * w_rhs[t]);
         }
         // suf_j = G x_j + M pre_j + r with G = M A_j + V_j; the joint's 2 x 2 block.
         let g = [gain_m.mul_v(a[0]) + v[0], gain_m.mul_v(a[1]) + v[1]];
@@ -586,11 +648,26 @@ fn step_group_in(
     let mut pos = root_pos;
     let mut vel = V3::default();
     let mut bad = L::ZERO.simd_ne(L::ZERO);
+    let mut too_far = bad;
+    let tolerance = L::splat(bdf2::ERROR_TOLERANCE as f32);
     let members_len = members.len();
     for i in 1..n {
         let joint = &ls.joints[i - 1];
         let w = [joint.w[0] + joint.x[0], joint.w[1] + joint.x[1]];
-        let q = [joint.q[0] + h * w[0], joint.q[1] + h * w[1]];
+        let q = if bdf2 {
+            for t in 0..2 {
+                // BDF2's local error `(b / 3) (w_{n+1} - 2 w_n + w_{n-1})`, as `bdf2::solve_step`
+                // estimates it; written so that a NaN fails too.
+                let error = h / third * (w[t] - (joint.w[t] + joint.w[t]) + joint.w_prev[t]);
+                too_far |= has_history & !error.abs().simd_le(tolerance);
+            }
+            [
+                joint.q[0] + (joint.shift[0] + h * w[0]),
+                joint.q[1] + (joint.shift[1] + h * w[1]),
+            ]
+        } else {
+            [joint.q[0] + h * w[0], joint.q[1] + h * w[1]]
+        };
         // Quasi-static stretch springs: each segment takes the length its tension asks for.
         let k_stretch = k_stretch.at(i);
         let stretched = rest_length.at(i) * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
@@ -613,10 +690,12 @@ fn step_group_in(
             vel,
         };
     }
-    let bad = bad.to_bitmask();
+    let (bad, too_far) = (bad.to_bitmask(), too_far.to_bitmask());
     for (l, o) in outcome.iter_mut().enumerate() {
         if *o == LaneOutcome::Done && bad & (1 << l) != 0 {
             *o = LaneOutcome::NonFinite;
+        } else if *o == LaneOutcome::Done && too_far & (1 << l) != 0 {
+            *o = LaneOutcome::Redo;
         }
     }
     // Lane by lane back to the run: only the strands that succeeded, each written from root to
@@ -628,6 +707,17 @@ fn step_group_in(
         let base = in_run[l];
         run.positions[base] = run.roots[local[l]].position;
         run.velocities[base] = Vector::zeros();
+        if bdf2 {
+            // The step one back, for the next BDF2 step (the root is attached and keeps its
+            // place).
+            let span = base + 1..base + n;
+            run.prev_theta[span.clone()].copy_from_slice(&run.theta[span.clone()]);
+            run.prev_phi[span.clone()].copy_from_slice(&run.phi[span.clone()]);
+            run.prev_omega_theta[span.clone()].copy_from_slice(&run.omega_theta[span.clone()]);
+            run.prev_omega_phi[span.clone()].copy_from_slice(&run.omega_phi[span]);
+            let rs = &mut run.roots[local[l]];
+            (rs.prev_position, rs.prev_velocity) = (rs.position, rs.velocity);
+        }
         for i in 1..n {
             let out = &ls.out[i];
             let lane = |v: &L| v.as_array()[l];
@@ -640,6 +730,12 @@ fn step_group_in(
             run.positions[at] = Point::new(lane(&out.pos.x), lane(&out.pos.y), lane(&out.pos.z));
             run.velocities[at] = Vector::new(lane(&out.vel.x), lane(&out.vel.y), lane(&out.vel.z));
         }
+        run.roots[local[l]].history = if bdf2 {
+            let rs = &run.roots[local[l]];
+            bdf2::history_tag_of(m2, coordinates(run, base, n), rs, settings.dt)
+        } else {
+            0
+        };
     }
     outcome
 }
@@ -999,6 +1095,53 @@ mod tests {
                 );
             }
             env.time += 0.1;
+        }
+    }
+
+    /// BDF2 in the lanes: over three steps (the first backward Euler, the next two reading the
+    /// history the lanes kept), the same angles as the scalar BDF2 step (taken here with the
+    /// dense solve, which the lanes do not cover) to 1e-5 rad; the first step is the lanes'
+    /// coupled step, and the third is not (the history is read).
+    #[test]
+    fn bdf2_in_lanes_agrees_with_the_scalar_bdf2_step() {
+        let h = 1.0 / 60.0;
+        for seed in 0..4u64 {
+            // Gentle enough that BDF2's error estimate never sends a strand back to the coupled
+            // step.
+            let state = strands(11, 17, seed, 0.2, 0.0, 1e-4, 0.0);
+            let three_steps = |integrator, solver| {
+                let mut s = state.clone();
+                let set = StepSettings {
+                    integrator,
+                    ..settings(h, TorqueModel::Chain, solver)
+                };
+                (0..3)
+                    .map(|_| {
+                        s.step(&Environment::default(), &set)
+                            .expect("a finite step");
+                        s.theta.iter().chain(&s.phi).copied().collect::<Vec<Real>>()
+                    })
+                    .collect::<Vec<_>>()
+            };
+            let lanes = three_steps(Integrator::ImplicitBdf2, LinearSolver::Structured);
+            let scalar = three_steps(Integrator::ImplicitBdf2, LinearSolver::Faer);
+            let coupled = three_steps(Integrator::ImplicitCoupled, LinearSolver::Structured);
+            for k in 0..3 {
+                let gap = worst(&lanes[k], &scalar[k]);
+                assert!(
+                    gap <= 1e-5,
+                    "seed {seed}, step {k}: lanes vs scalar {gap:e} rad"
+                );
+            }
+            assert!(
+                worst(&lanes[0], &coupled[0]) <= 1e-7,
+                "seed {seed}: first step"
+            );
+            let apart = worst(&lanes[2], &coupled[2]);
+            assert!(
+                apart > 1e-4,
+                "seed {seed}: BDF2 {apart:e} rad from the coupled step"
+            );
         }
     }
 

@@ -499,12 +499,15 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                     let outcome = lanes::step_group(run, sh, group, n);
                     for (&local, o) in group.iter().zip(outcome) {
                         match o {
-                            lanes::LaneOutcome::Done => run.roots[local].history = 0,
+                            // The lanes left the strand's BDF2 history (or none).
+                            lanes::LaneOutcome::Done => {}
                             lanes::LaneOutcome::Declined => {
                                 *fallbacks += 1;
                                 scalar(run, local, &dense);
                             }
-                            lanes::LaneOutcome::NonFinite => scalar(run, local, &sh.settings),
+                            lanes::LaneOutcome::NonFinite | lanes::LaneOutcome::Redo => {
+                                scalar(run, local, &sh.settings)
+                            }
                         }
                     }
                 };
