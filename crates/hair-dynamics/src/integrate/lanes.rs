@@ -1,14 +1,17 @@
-//! The coupled implicit step eight strands at a time, in `f32x8` lanes.
+//! The coupled implicit step and BDF2 eight strands at a time, in `f32x8` lanes.
 //!
 //! The same model and the same linear solve as [`super::implicit_coupled`]'s structured solve,
 //! specialised to what the runtime runs most: `f32`, attached roots and a head that does not
 //! turn. Air drag and force fields are loads the step treats explicitly, as the scalar step does:
-//! they are sampled per node and lane by the environment's own scalar functions. Strands of
-//! equal node count in a worker's run are grouped by eight; a group's data are laid out lane by
-//! lane (lane `l` of every vector is strand `l`), so each arithmetic instruction advances eight
-//! strands. A group short of eight repeats its last
-//! strand in the spare lanes and drops their results, so a strand's answer never depends on which
-//! strands share its group (results are the same for any thread count).
+//! they are sampled per node and lane by the environment's own scalar functions. BDF2 is the
+//! same system with the step, the right-hand side's rates and the torque shifted
+//! ([`super::bdf2`]); a lane without BDF2 history takes the coupled step.
+//!
+//! Strands of equal node count in a worker's run are grouped by eight; a group's data are laid
+//! out lane by lane (lane `l` of every vector is strand `l`), so each arithmetic instruction
+//! advances eight strands. A group short of eight repeats its last strand in the spare lanes and
+//! drops their results, so a strand's answer never depends on which strands share its group
+//! (results are the same for any thread count).
 //!
 //! Per step and group, four passes over the nodes:
 //! 1. root to tip: the kinematics (positions, tangents, joint axes, and velocities where air
@@ -20,8 +23,9 @@
 //! 4. tip to root: the residual check, on values pass 2 and 3 kept.
 //!
 //! and a last root-to-tip pass that updates the state and writes the end-of-step positions and
-//! velocities. A lane whose check fails, or whose state goes non-finite, is left untouched and
-//! redone by the scalar step (the check's failures counted as dense fallbacks).
+//! velocities. A lane whose check fails, whose state goes non-finite or whose BDF2 error
+//! estimate is over its bound is left untouched and redone by the scalar step (the check's
+//! failures counted as dense fallbacks).
 
 use super::{Integrator, LinearSolver, Shared, StepSettings, TorqueModel, bdf2};
 use crate::run::Run;
