@@ -259,7 +259,7 @@ pub(super) fn step_group(
 ) -> [LaneOutcome; LANES] {
     LANE_SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
-        guard.reserve(n);
+        guard.reserve(n.max(sh.max_count));
         step_group_in(run, sh, members, n, &mut guard)
     })
 }
@@ -758,17 +758,21 @@ impl LaneBend {
         let small_limit = L::splat(1e-4);
         let small = a2.simd_lt(small_limit);
         let one = L::ONE;
-        // Series near zero, where the closed forms cancel; the closed forms on a clamped angle
-        // so that the lanes not taking them stay finite.
-        let s_series = one - a2 / L::splat(6.0) + a2 * a2 / L::splat(120.0);
-        let c_series = L::splat(0.5) - a2 / L::splat(24.0) + a2 * a2 / L::splat(720.0);
-        let e_series = one / L::splat(6.0) - a2 / L::splat(120.0);
+        // The closed forms on a clamped angle, so that the lanes not taking them stay finite;
+        // the series near zero, where the closed forms cancel (worked out only when a lane
+        // needs them: five divisions a joint, and a joint is rarely that straight).
         let a2c = a2.max(small_limit);
         let a = a2c.sqrt();
         let (sin, cos) = a.sin_cos();
-        let s = small.select(s_series, sin / a);
-        let c = small.select(c_series, (one - cos) / a2c);
-        let e = small.select(e_series, (a - sin) / (a2c * a));
+        let (mut s, mut c, mut e) = (sin / a, (one - cos) / a2c, (a - sin) / (a2c * a));
+        if small.any() {
+            let s_series = one - a2 / L::splat(6.0) + a2 * a2 / L::splat(120.0);
+            let c_series = L::splat(0.5) - a2 / L::splat(24.0) + a2 * a2 / L::splat(720.0);
+            let e_series = one / L::splat(6.0) - a2 / L::splat(120.0);
+            s = small.select(s_series, s);
+            c = small.select(c_series, c);
+            e = small.select(e_series, e);
+        }
         let cxy = c * x * y;
         let rotation = M3 {
             r: [

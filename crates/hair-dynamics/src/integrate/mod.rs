@@ -432,6 +432,9 @@ thread_local! {
 struct Shared<'a> {
     state_offsets: &'a [u32],
     counts: &'a [u32],
+    /// The most nodes of any skeleton: every worker's lane buffers grow to it at once, so which
+    /// worker runs which strands (work stealing) never decides whether a step allocates.
+    max_count: usize,
     active: &'a [bool],
     rest_theta: &'a [Real],
     rest_phi: &'a [Real],
@@ -723,6 +726,7 @@ impl StrandState {
             let sh = Shared {
                 state_offsets: &self.offsets,
                 counts: &self.counts,
+                max_count: self.counts.iter().max().map_or(0, |&c| c as usize),
                 active: &self.active,
                 rest_theta: &self.rest_theta,
                 rest_phi: &self.rest_phi,
