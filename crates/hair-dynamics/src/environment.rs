@@ -130,6 +130,16 @@ impl Wind {
             }),
         }
     }
+
+    fn validate(&self) -> Result<(), DynamicsError> {
+        finite_vec("wind.direction", &self.direction)?;
+        non_negative("wind.speed", self.speed)?;
+        non_negative("wind.gust", self.gust)?;
+        non_negative("wind.gust_frequency", self.gust_frequency)?;
+        non_negative("wind.turbulence", self.turbulence)?;
+        non_negative("wind.turbulence_scale", self.turbulence_scale)?;
+        non_negative("wind.drag", self.drag)
+    }
 }
 
 /// [`Wind`] at one time.
@@ -163,18 +173,6 @@ impl WindAt {
             v += Vector::new(a, b, c) * tb.amplitude;
         }
         v
-    }
-}
-
-impl Wind {
-    fn validate(&self) -> Result<(), DynamicsError> {
-        finite_vec("wind.direction", &self.direction)?;
-        non_negative("wind.speed", self.speed)?;
-        non_negative("wind.gust", self.gust)?;
-        non_negative("wind.gust_frequency", self.gust_frequency)?;
-        non_negative("wind.turbulence", self.turbulence)?;
-        non_negative("wind.turbulence_scale", self.turbulence_scale)?;
-        non_negative("wind.drag", self.drag)
     }
 }
 

@@ -370,6 +370,7 @@ fn step_group_in(
         bdf2 && rs.history != 0
             && rs.history == bdf2::history_tag_of(m2, coordinates(run, lo, n), rs, settings.dt)
     });
+    // `h` from here on is each lane's step in the system: BDF2's `b = 2h/3` where it has history.
     let b_step = (settings.dt + settings.dt) / 3.0;
     let h = L::from(history.map(|has| if has { b_step } else { settings.dt }));
     let h2 = h * h;
@@ -377,26 +378,36 @@ fn step_group_in(
     let third = L::splat(3.0);
     // Each field of the group, sliced to its strands (and asked of memory now, see
     // `Strands::new`).
-    let (theta, phi) = (
-        Strands::new(run.theta, &in_run, n),
-        Strands::new(run.phi, &in_run, n),
-    );
-    let omega_theta = Strands::new(run.omega_theta, &in_run, n);
-    let omega_phi = Strands::new(run.omega_phi, &in_run, n);
-    let length = Strands::new(run.length, &in_run, n);
-    let (mass, wetness) = (
-        Strands::new(sh.mass, &global, n),
-        Strands::new(sh.wetness, &global, n),
-    );
-    let damping = Strands::new(sh.damping, &global, n);
-    let (k_theta, k_phi) = (
-        Strands::new(sh.k_theta, &global, n),
-        Strands::new(sh.k_phi, &global, n),
-    );
-    let rest_theta = Strands::new(sh.rest_theta, &global, n);
-    let rest_phi = Strands::new(sh.rest_phi, &global, n);
-    let k_stretch = Strands::new(sh.k_stretch, &global, n);
-    let rest_length = Strands::new(sh.rest_length, &global, n);
+    let [theta, phi, omega_theta, omega_phi, length] = [
+        &*run.theta,
+        &*run.phi,
+        &*run.omega_theta,
+        &*run.omega_phi,
+        &*run.length,
+    ]
+    .map(|field| Strands::new(field, &in_run, n));
+    let [
+        mass,
+        wetness,
+        damping,
+        k_theta,
+        k_phi,
+        rest_theta,
+        rest_phi,
+        k_stretch,
+        rest_length,
+    ] = [
+        sh.mass,
+        sh.wetness,
+        sh.damping,
+        sh.k_theta,
+        sh.k_phi,
+        sh.rest_theta,
+        sh.rest_phi,
+        sh.k_stretch,
+        sh.rest_length,
+    ]
+    .map(|field| Strands::new(field, &global, n));
     let rest_points = Strands::new(sh.rest_points, &global, n);
     let has_external = !sh.force.is_empty();
     let force = has_external.then(|| Strands::new(sh.force, &global, n));
