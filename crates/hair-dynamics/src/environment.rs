@@ -146,16 +146,18 @@ impl Wind {
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct WindAt {
     /// The mean flow with its gust (zero without wind).
-    mean: Vector,
-    turbulence: Option<Turbulence>,
+    pub mean: Vector,
+    pub turbulence: Option<Turbulence>,
 }
 
+/// The turbulent part of [`WindAt`]: `amplitude * (sin(q.y + phases[0] + drift),
+/// sin(q.z + phases[1] + drift), sin(q.x + phases[2] + drift))` with `q = p / scale`.
 #[derive(Clone, Copy, Debug)]
-struct Turbulence {
-    scale: Real,
-    phases: [Real; 3],
-    drift: Real,
-    amplitude: Real,
+pub(crate) struct Turbulence {
+    pub scale: Real,
+    pub phases: [Real; 3],
+    pub drift: Real,
+    pub amplitude: Real,
 }
 
 impl WindAt {
