@@ -3,9 +3,10 @@
 //! The same model and the same linear solve as [`super::implicit_coupled`]'s structured solve,
 //! specialised to what the runtime runs most: `f32`, attached roots and a head that does not
 //! turn. Air drag and force fields are loads the step treats explicitly, as the scalar step does:
-//! they are sampled per node and lane by the environment's own scalar functions. BDF2 is the
-//! same system with the step, the right-hand side's rates and the torque shifted
-//! ([`super::bdf2`]); a lane without BDF2 history takes the coupled step.
+//! the air's velocity in lanes (the same wind model), the fields per node and lane by the
+//! environment's own scalar functions. BDF2 is the same system with the step, the right-hand
+//! side's rates and the torque shifted ([`super::bdf2`]); a lane without BDF2 history takes the
+//! coupled step.
 //!
 //! Strands of equal node count in a worker's run are grouped by eight; a group's data are laid
 //! out lane by lane (lane `l` of every vector is strand `l`), so each arithmetic instruction
@@ -185,7 +186,7 @@ struct JointSweep {
     w_prev: [L; 2],
 }
 
-/// Per-node lane buffers, grown to the longest group seen and then reused.
+/// Per-node lane buffers, grown to the state's longest skeleton and then reused.
 #[derive(Default)]
 struct LaneScratch {
     pos: Vec<V3>,
