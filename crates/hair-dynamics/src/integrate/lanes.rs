@@ -326,7 +326,7 @@ fn prefetch<T>(x: &T) {
 /// model of `LocalEnv::air_velocity` (the wind at the step's time, seen from the moving head)
 /// with the head's turn as a matrix and the turbulence's sines in lanes. Three vector sines do
 /// the work of twenty-four calls of `sinf`.
-struct LaneAir {
+pub(super) struct LaneAir {
     /// Head to world.
     turn: M3,
     position: V3,
@@ -338,7 +338,7 @@ struct LaneAir {
 }
 
 impl LaneAir {
-    fn new(env: &crate::environment::LocalEnv<'_, f32>) -> Self {
+    pub(super) fn new(env: &crate::environment::LocalEnv<'_, f32>) -> Self {
         let head = &env.env.head;
         let splat = |v: &Vector| V3 {
             x: L::splat(v.x),
@@ -385,7 +385,7 @@ impl LaneAir {
     }
 }
 
-/// A scalar function of a point, evaluated lane by lane (the environment's air and fields).
+/// A scalar function of a point, evaluated lane by lane (the environment's force fields).
 #[inline(always)]
 fn per_lane(p: V3, f: impl Fn(usize, Vector) -> Vector) -> V3 {
     let (x, y, z) = (p.x.to_array(), p.y.to_array(), p.z.to_array());
@@ -436,9 +436,9 @@ fn step_group_in(
     });
     // `h` from here on is each lane's step in the system: BDF2's `b = 2h/3` where it has history.
     let b_step = (settings.dt + settings.dt) / 3.0;
-    let h = L::from(history.map(|has| if has { b_step } else { settings.dt }));
-    let h2 = h * h;
     let has_history = L::from(history.map(|has| if has { 1.0 } else { 0.0 })).simd_gt(L::ZERO);
+    let h = has_history.select(L::splat(b_step), L::splat(settings.dt));
+    let h2 = h * h;
     let third = L::splat(3.0);
     // Each field of the group, sliced to its strands (and asked of memory now, see
     // `Strands::new`).
@@ -505,10 +505,9 @@ fn step_group_in(
             z: L::splat(g.z),
         }
     };
-    let has_air = sh.env.has_air;
+    let has_air = sh.lane_air.is_some();
     let has_fields = !sh.env.env.fields.is_empty();
     let drag = L::splat(sh.env.env.wind.drag);
-    let air = has_air.then(|| LaneAir::new(&sh.env));
 
     // Pass 1, root to tip: kinematics and the prefix sums of A w.
     let mut rot = root_rot;
@@ -578,12 +577,9 @@ fn step_group_in(
         let xi = ls.pos[i];
         let mi = mass.at(i) + wetness.at(i);
         let mut fi = gravity * mi;
-        if has_air {
+        if let Some(air) = &sh.lane_air {
             // Drag on the air's velocity across the segment, as `strand::forces` has it.
-            let u = air
-                .as_ref()
-                .map_or_else(V3::default, |air| air.velocity(xi))
-                - ls.vel[i];
+            let u = air.velocity(xi) - ls.vel[i];
             let t = ls.tangent[i];
             let across = u - t * u.dot(t);
             fi = fi + across * (drag * len);

@@ -448,6 +448,8 @@ struct Shared<'a> {
     rest_points: &'a [Vector],
     force: &'a [Vector],
     env: LocalEnv<'a, Real>,
+    /// The air for the lane step, worked out once a step (`None` where no air drags).
+    lane_air: Option<lanes::LaneAir>,
     settings: StepSettings,
 }
 
@@ -723,6 +725,8 @@ impl StrandState {
         let skeletons = self.offsets.len();
         let dormant = self.active.iter().filter(|a| !**a).count();
         let (bad, dense_fallbacks) = {
+            let local = env.local();
+            let lane_air = local.has_air.then(|| lanes::LaneAir::new(&local));
             let sh = Shared {
                 state_offsets: &self.offsets,
                 counts: &self.counts,
@@ -739,7 +743,8 @@ impl StrandState {
                 damping: &self.damping,
                 rest_points: &self.rest_points,
                 force: &force,
-                env: env.local(),
+                env: local,
+                lane_air,
                 settings: *settings,
             };
             // The run borrows only its own fields: `sh` holds others.
