@@ -8,7 +8,9 @@
 use crate::lod_stage::{self, LodStage};
 use crate::scene::{HeadMotionSpec, LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
-use hair_collide::{BodyConstraint, HairHairStage, Localization, Sections, make_groom_rest};
+use hair_collide::{
+    BodyConstraint, HairHairModel, HairHairStage, Localization, Sections, make_groom_rest,
+};
 use hair_dynamics::{Environment, HeadPoseTrack, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
 use hair_lod::{Hierarchy, NodeKind};
@@ -548,11 +550,16 @@ impl Simulation {
     /// pair grid when the hair-hair model searches this step (`Pairs` only), localization
     /// measures activity or a tool script reads its cells, then localization.
     fn build_grid(&mut self) -> Result<(), HairError> {
-        self.sections.build(&self.state, &self.front_nodes);
         // The pairs of the last search are tested again while young enough and the hair is the
         // same hair: the same front (a new one drops them) and no tool script (a cut, a bond).
         let reuse_allowed = self.salon.script().events.is_empty();
         let search = self.hair_hair.plan(&self.scene.collision, reuse_allowed);
+        // The sections are read by the exact hair-hair model, localization and the tools; the
+        // volume alone never reads them (a tenth of a dense frame's cost to build).
+        let pairs = self.scene.collision.hair_hair == HairHairModel::Pairs;
+        if pairs || self.scene.localization || !reuse_allowed {
+            self.sections.build(&self.state, &self.front_nodes);
+        }
         if search || self.scene.localization || !reuse_allowed {
             self.grid.rebuild(&self.sections.sections)?;
         }
