@@ -6,6 +6,7 @@ use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, Velo
 use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
 use nalgebra::Isometry3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// What one application of the body constraint found.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -26,8 +27,9 @@ pub struct BodyConstraint {
     first_moved: Vec<u32>,
     body_hits: Vec<Option<(Real, Vector)>>,
     /// The sweeps: the chains of this pass and the next (`[skeleton, first node asked]`, by
-    /// skeleton), per skeleton its radius, the first node each chain moved, the chains of the
-    /// first pass, and per node what its last test found.
+    /// skeleton), per skeleton its radius, the first node each chain moved, the chains in
+    /// contact on the first pass (`[skeleton, first node in contact]`, global index), and per
+    /// node what its last test found.
     sweep_chains: Vec<[u32; 2]>,
     sweep_next: Vec<[u32; 2]>,
     sweep_radius: Vec<Real>,
@@ -45,10 +47,13 @@ pub struct BodyConstraint {
     /// the step it was last added to.
     support: Option<BodySupport>,
     supported_step: Option<u64>,
-    /// The joint angles before this application's passes, and the active front (ascending).
+    /// The joint angles before this application's passes, and the skeletons the passes moved
+    /// (ascending once sorted).
     recorded_theta: Vec<Real>,
     recorded_phi: Vec<Real>,
-    active_skeletons: Vec<u32>,
+    moved_skeletons: Vec<u32>,
+    /// Per chain of a sweep, its first node in contact (`u32::MAX`: none).
+    chain_contact: ChainContacts,
 }
 
 impl BodyConstraint {
@@ -191,6 +196,7 @@ impl BodyConstraint {
         // last one, in pass order: one refresh of each touched skeleton instead of one a pass.
         self.constraints.clear();
         self.body_nodes.clear();
+        self.moved_skeletons.clear();
         let mut contacts = 0;
         // The deepest node centre among the nodes the sweeps left (they no longer move).
         let mut swept_depth: Real = 0.0;
@@ -226,16 +232,18 @@ impl BodyConstraint {
                 let r = shared.nodes(SkeletonId(n));
                 shared.radius().get(r.start).copied().unwrap_or(0.0)
             }));
-            self.swept.clone_from(&self.sweep_chains);
             self.sweep_hits
                 .resize(state.node_count(), SweepHit::default());
+            self.swept.clear();
             for pass in 0..settings.body_passes {
                 if self.sweep_chains.is_empty() {
                     break;
                 }
                 self.sweep_moved.clear();
                 self.sweep_moved.resize(self.sweep_chains.len(), u32::MAX);
+                self.chain_contact.reset(self.sweep_chains.len());
                 let (chains, skeleton_radius) = (&self.sweep_chains, &self.sweep_radius);
+                let chain_contact = &self.chain_contact.0;
                 state.sweep_chains(
                     chains,
                     &mut self.sweep_hits,
@@ -260,6 +268,9 @@ impl BodyConstraint {
                             corrected: false,
                         };
                         let (d, n) = hit?;
+                        // Only the thread sweeping this chain writes its entry; the atomic
+                        // lets the shared callback write at all.
+                        chain_contact[ask.chain].fetch_min(ask.node as u32, Ordering::Relaxed);
                         if radius - d <= skin {
                             return None;
                         }
@@ -292,23 +303,32 @@ impl BodyConstraint {
                         Some(target)
                     },
                 )?;
-                // The contacts in chain order, then the chains to sweep again.
+                // The contacts in chain order, read from each chain's first (the sweep noted
+                // it: reading every node's hit again cost more than the sweep's own tests),
+                // then the chains to sweep again.
                 self.sweep_next.clear();
-                for (k, &[n, from]) in self.sweep_chains.iter().enumerate() {
+                for (k, &[n, _]) in self.sweep_chains.iter().enumerate() {
                     let r = state.nodes(SkeletonId(n));
-                    for node in r.start + from as usize..r.end {
-                        let h = &self.sweep_hits[node];
-                        if let (true, Some(normal)) = (h.tested, h.normal) {
-                            self.constraints.push(VelocityConstraint {
-                                node: node as u32,
-                                normal,
-                                friction,
-                            });
+                    let first = self.chain_contact.0[k].load(Ordering::Relaxed);
+                    if first != u32::MAX {
+                        if pass == 0 {
+                            self.swept.push([n, first]);
+                        }
+                        for node in first as usize..r.end {
+                            let h = &self.sweep_hits[node];
+                            if let (true, Some(normal)) = (h.tested, h.normal) {
+                                self.constraints.push(VelocityConstraint {
+                                    node: node as u32,
+                                    normal,
+                                    friction,
+                                });
+                            }
                         }
                     }
                     let moved = self.sweep_moved[k];
                     if moved != u32::MAX {
                         self.sweep_next.push([n, moved - r.start as u32]);
+                        self.moved_skeletons.push(n);
                     }
                 }
                 if pass == 0 {
@@ -325,9 +345,11 @@ impl BodyConstraint {
                 }
                 push_body_nodes(&mut self.body_nodes, &*state, n, from);
             }
-            for &[n, from] in &self.swept {
-                let r = state.nodes(SkeletonId(n));
-                for h in &self.sweep_hits[r.start + from as usize..r.end] {
+            // A node is left inside only where its chain had a contact on the first sweep (the
+            // later sweeps go over the chains it moved): from that contact on.
+            for &[n, first] in &self.swept {
+                let end = state.nodes(SkeletonId(n)).end;
+                for h in &self.sweep_hits[first as usize..end] {
                     swept_depth = swept_depth.max(h.depth);
                 }
             }
@@ -432,6 +454,9 @@ impl BodyConstraint {
                     delta: target - p,
                 });
                 let first = &mut self.first_moved[bn.skeleton as usize];
+                if *first == u32::MAX {
+                    self.moved_skeletons.push(bn.skeleton);
+                }
                 *first = (*first).min(bn.node);
             }
             if pass == 0 {
@@ -460,19 +485,14 @@ impl BodyConstraint {
         // and the push-out undid it), the rate shrinks by that turn over the step: the hair
         // did not move that way, and a rate left in place drove it in again every step. (Not
         // against a moving part: its push-out is motion the hair keeps.)
+        // A skeleton no pass moved has no turn to take back.
         if still {
-            self.active_skeletons.clear();
-            self.active_skeletons.extend(
-                front
-                    .iter()
-                    .copied()
-                    .filter(|&n| state.is_active(SkeletonId(n))),
-            );
-            self.active_skeletons.sort_unstable();
+            self.moved_skeletons.sort_unstable();
+            self.moved_skeletons.dedup();
             state.absorb_turns(
                 &self.recorded_theta,
                 &self.recorded_phi,
-                &self.active_skeletons,
+                &self.moved_skeletons,
             )?;
         }
         if !self.constraints.is_empty() {
@@ -497,6 +517,33 @@ impl BodyConstraint {
             contacts,
             max_penetration: deepest.max(settled).max(swept_depth).max(0.0),
         })
+    }
+}
+
+/// Per chain of a sweep, the first node the sweep found in contact (`u32::MAX`: none): the
+/// sweep's threads each write their own chains' entries.
+#[derive(Debug, Default)]
+struct ChainContacts(Vec<AtomicU32>);
+
+impl ChainContacts {
+    /// `chains` entries, each none.
+    fn reset(&mut self, chains: usize) {
+        self.0.truncate(chains);
+        for c in &mut self.0 {
+            *c.get_mut() = u32::MAX;
+        }
+        self.0.resize_with(chains, || AtomicU32::new(u32::MAX));
+    }
+}
+
+impl Clone for ChainContacts {
+    fn clone(&self) -> Self {
+        Self(
+            self.0
+                .iter()
+                .map(|c| AtomicU32::new(c.load(Ordering::Relaxed)))
+                .collect(),
+        )
     }
 }
 

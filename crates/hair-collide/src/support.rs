@@ -18,6 +18,7 @@
 use crate::CollisionSettings;
 use hair_dynamics::{DynamicsError, SkeletonId, StrandState};
 use hair_ssv::{MeshBody, Real, Vector};
+use rayon::prelude::*;
 
 /// Distance beyond a node's radius within which groomed hair counts as lying on the body (m):
 /// the clearance a groom is laid at and the hair layer under the outer strands.
@@ -43,6 +44,8 @@ struct Push {
 #[derive(Clone, Debug, Default)]
 pub struct BodySupport {
     pushes: Vec<Push>,
+    /// Per push, its force this step if it acts.
+    acting: Vec<Option<(u32, Vector)>>,
     forces: Vec<(u32, Vector)>,
 }
 
@@ -104,22 +107,22 @@ impl BodySupport {
         body: &MeshBody,
         settings: &CollisionSettings,
     ) -> Result<usize, DynamicsError> {
-        self.forces.clear();
         let p = state.positions();
-        for push in &self.pushes {
-            if !state.is_active(SkeletonId(push.skeleton)) {
-                continue;
-            }
-            let gone = push.groomed_at + SUPPORT_LIFT;
-            let Some((d, n)) = body.distance_within(settings.method, &p[push.node as usize], gone)
-            else {
-                continue;
-            };
-            let share = ((gone - d) / SUPPORT_LIFT).clamp(0.0, 1.0);
-            if share > 0.0 {
-                self.forces.push((push.node, n * (push.force * share)));
-            }
-        }
+        let shared = &*state;
+        self.pushes
+            .par_iter()
+            .map(|push| {
+                if !shared.is_active(SkeletonId(push.skeleton)) {
+                    return None;
+                }
+                let gone = push.groomed_at + SUPPORT_LIFT;
+                let (d, n) = body.distance_within(settings.method, &p[push.node as usize], gone)?;
+                let share = ((gone - d) / SUPPORT_LIFT).clamp(0.0, 1.0);
+                (share > 0.0).then(|| (push.node, n * (push.force * share)))
+            })
+            .collect_into_vec(&mut self.acting);
+        self.forces.clear();
+        self.forces.extend(self.acting.iter().flatten());
         state.add_forces_for_next_step(&self.forces)?;
         Ok(self.forces.len())
     }

@@ -491,10 +491,18 @@ impl MeshBody {
             CollisionMethod::Bvh => 0.0,
             CollisionMethod::Maps => Real::INFINITY,
         };
-        if self.closed && self.near.lower_bound(p) - error - 1e-6 >= reach {
-            return None;
+        // One look-up of the near field serves the bound and the margin (`distance`'s own).
+        if !self.near.centre.is_empty() {
+            let (k, c) = self.near.cell_of(p)?;
+            let centre = self.near.centre[k];
+            if self.closed && centre - (p - c).norm() - error - 1e-6 >= reach {
+                return None;
+            }
+            if centre > self.near.reach {
+                return None;
+            }
         }
-        self.distance(method, p)
+        self.distance_near(method, p)
     }
 
     /// Signed distance and outward normal by `method`, or `None` when `p` is farther than
@@ -504,6 +512,12 @@ impl MeshBody {
         if !self.near.is_near(p) {
             return None;
         }
+        self.distance_near(method, p)
+    }
+
+    /// [`MeshBody::distance`] at a point the near field puts within the margin.
+    #[inline]
+    fn distance_near(&self, method: CollisionMethod, p: &Point) -> Option<(Real, Vector)> {
         match (method, &self.maps) {
             (CollisionMethod::Maps, Some(maps)) => {
                 use crate::SurfaceMap;
