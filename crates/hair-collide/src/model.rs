@@ -55,7 +55,7 @@ pub struct VolumeSettings {
     /// The grid's spacing as a multiple of the active hair's mean segment length. Default 1.
     pub cell_size: Real,
     /// Most grid points: a wider spacing is taken when the hair's bounds would need more.
-    /// Default 1,048,576 (32 MB of sums).
+    /// Default 1,048,576 (16 MB of lattice points).
     pub max_cells: u32,
     /// The friction rate at the root (1/s): a node's velocity moves toward the grid's by the
     /// fraction `1 - exp(-rate dt)` each step, so the pull does not depend on the step.

@@ -4,19 +4,22 @@
 //! toward the grid's velocity at its place (friction between neighbouring strands), and a push
 //! down the density gradient where the hair is packed more densely than a target.
 //!
-//! Sums over nodes are order-independent: each node's share is rounded to a fixed-point integer
-//! (a power-of-two scale chosen from the step's largest value, so the rounding is relative) and
-//! integers add exactly in any order. The splat runs in parallel over slabs of grid planes; any
-//! thread count gives the same bits.
+//! The splat runs in parallel over slabs of grid planes, each slab's nodes in a fixed order
+//! and the slabs in a fixed two-phase order, so every lattice point adds the same numbers in
+//! the same order on any thread count: the same bits.
 
 use crate::{CollideError, VolumeSettings};
 use hair_dynamics::{SkeletonId, StrandState};
 use hair_ssv::{Point, Real, Vector};
 use rayon::prelude::*;
 
-/// Slabs of grid planes the splat is cut into: the parallel grain (the result does not depend
-/// on it, the integers add exactly).
+/// Slabs of grid planes the splat is cut into: the parallel grain. It fixes the order of the
+/// sums, so it is a constant, never the thread count.
 const SLABS: usize = 16;
+
+/// Nodes per chunk of the gathering's sums and of the sort by slab: a constant, so that the
+/// segment lengths add in the same order on any thread count.
+const CHUNK: usize = 4096;
 
 /// What one volume response did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -66,17 +69,20 @@ pub struct HairVolume {
     /// The nodes splatted (every node of an active skeleton but its root), skeleton by
     /// skeleton in front order.
     nodes: Vec<u32>,
-    /// Each listed node's friction rate (1/s), from the root-to-tip profile.
-    rate: Vec<Real>,
+    /// Per chunk of [`CHUNK`] nodes: bounds, summed segment length, first non-finite node.
+    chunk_sums: Vec<ChunkSums>,
+    /// Each listed node's blend fraction this step, `1 - exp(-rate dt)`, the rate (1/s) from
+    /// the root-to-tip profile.
+    alpha: Vec<Real>,
     corners: Vec<Corner>,
-    /// Node slots (into `nodes`) ordered by slab, and where each slab's run starts.
+    /// Node slots (into `nodes`), each chunk of [`CHUNK`] slots ordered by slab within the
+    /// chunk; per chunk, where each slab's run starts (`slabs + 1` entries, from the chunk's
+    /// start). Slab `s`'s nodes in slot order are the chunks' runs of `s` in chunk order.
     order: Vec<u32>,
-    slab_start: Vec<u32>,
-    /// Per lattice point: mass and momentum in fixed point.
-    sums: Vec<[i64; 4]>,
-    /// Per lattice point: velocity (m/s) and density (kg/m³).
-    velocity: Vec<Vector>,
-    density: Vec<Real>,
+    chunk_runs: Vec<u32>,
+    /// Per lattice point: mass and momentum while splatting, then velocity (m/s, zero where no
+    /// hair is) and density (kg/m³).
+    points: Vec<[Real; 4]>,
     /// The blended velocities and whether the repulsion pushed the node.
     blended: Vec<(Vector, bool)>,
     targets: Vec<(u32, Vector)>,
@@ -97,14 +103,14 @@ impl HairVolume {
         self.lattice
     }
 
-    /// Per lattice point of the last splat: its velocity (m/s; zero where no hair is).
-    pub fn lattice_velocity(&self) -> &[Vector] {
-        &self.velocity
+    /// The velocity (m/s; zero where no hair is) of lattice point `j` at the last splat.
+    pub fn lattice_velocity(&self, j: usize) -> Option<Vector> {
+        self.points.get(j).map(|p| Vector::new(p[0], p[1], p[2]))
     }
 
-    /// Per lattice point of the last splat: its density (kg/m³).
-    pub fn lattice_density(&self) -> &[Real] {
-        &self.density
+    /// The density (kg/m³) at lattice point `j` at the last splat.
+    pub fn lattice_density(&self, j: usize) -> Option<Real> {
+        self.points.get(j).map(|p| p[3])
     }
 
     /// The response: every active node's velocity blended toward the grid's and pushed out of
@@ -122,13 +128,16 @@ impl HairVolume {
         settings: &VolumeSettings,
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
-        let report = self.blend(state, front, settings, dt)?;
+        let report = self.blend_nodes(state, front, settings, dt)?;
         let (mass, wetness, velocity) = (state.mass(), state.wetness(), state.velocities());
-        self.forces.clear();
-        self.forces.extend(self.targets.iter().map(|&(i, target)| {
-            let n = i as usize;
-            (i, (target - velocity[n]) * ((mass[n] + wetness[n]) / dt))
-        }));
+        self.nodes
+            .par_iter()
+            .zip(&self.blended)
+            .map(|(&i, &(target, _))| {
+                let n = i as usize;
+                (i, (target - velocity[n]) * ((mass[n] + wetness[n]) / dt))
+            })
+            .collect_into_vec(&mut self.forces);
         state.add_forces_for_next_step(&self.forces)?;
         Ok(report)
     }
@@ -143,29 +152,38 @@ impl HairVolume {
         settings: &VolumeSettings,
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
+        let report = self.blend_nodes(state, front, settings, dt)?;
+        self.nodes
+            .par_iter()
+            .zip(&self.blended)
+            .map(|(&i, &(v, _))| (i, v))
+            .collect_into_vec(&mut self.targets);
+        Ok(report)
+    }
+
+    /// [`HairVolume::blend`] into `blended`, by slot of `nodes`.
+    fn blend_nodes(
+        &mut self,
+        state: &StrandState,
+        front: &[u32],
+        settings: &VolumeSettings,
+        dt: Real,
+    ) -> Result<VolumeReport, CollideError> {
         self.targets.clear();
-        let Some((lo, hi, mean_length, max_mass, max_momentum)) =
-            self.gather(state, front, settings)?
-        else {
+        let Some((lo, hi, mean_length)) = self.gather(state, front, settings, dt)? else {
             self.lattice = Lattice::default();
-            self.velocity.clear();
-            self.density.clear();
+            self.points.clear();
+            self.blended.clear();
             return Ok(VolumeReport::default());
         };
         self.lattice = lattice_over(lo, hi, settings.cell_size * mean_length, settings.max_cells);
         self.place(state);
-        self.splat(state, max_mass, max_momentum);
-        self.sample(state, settings, dt);
-        self.targets.extend(
-            self.nodes
-                .iter()
-                .zip(&self.blended)
-                .map(|(&i, &(v, _))| (i, v)),
-        );
+        self.splat(state);
+        self.sample(state, settings);
         Ok(VolumeReport {
             nodes: self.nodes.len(),
-            cells: self.velocity.len(),
-            repelled: self.blended.iter().filter(|b| b.1).count(),
+            cells: self.points.len(),
+            repelled: self.blended.par_iter().filter(|b| b.1).count(),
         })
     }
 
@@ -174,26 +192,21 @@ impl HairVolume {
         &self.targets
     }
 
-    /// Lists the nodes and their rates; returns the bounds of their positions, their mean
-    /// segment length, their largest mass and largest momentum component, or `None` when there
-    /// is no node.
-    #[allow(clippy::type_complexity)]
+    /// Lists the nodes and their blend fractions over `dt`; returns the bounds of their positions and their mean
+    /// segment length, or `None` when there is no node.
     fn gather(
         &mut self,
         state: &StrandState,
         front: &[u32],
         settings: &VolumeSettings,
-    ) -> Result<Option<(Point, Point, Real, Real, Real)>, CollideError> {
+        dt: Real,
+    ) -> Result<Option<(Point, Point, Real)>, CollideError> {
         self.nodes.clear();
-        self.rate.clear();
-        let (p, v, mass, length) = (
-            state.positions(),
-            state.velocities(),
-            state.mass(),
-            state.length(),
+        self.alpha.clear();
+        let (root, tip) = (
+            settings.friction_root.max(0.0),
+            settings.friction_tip.max(0.0),
         );
-        let (mut lo, mut hi) = (Point::from([Real::MAX; 3]), Point::from([Real::MIN; 3]));
-        let (mut total_length, mut max_mass, mut max_momentum) = (0.0f64, 0.0 as Real, 0.0 as Real);
         for &s in front {
             let id = SkeletonId(s);
             if !state.is_active(id) {
@@ -201,34 +214,58 @@ impl HairVolume {
             }
             let r = state.nodes(id);
             let last = (r.len().max(2) - 1) as Real;
-            for (k, i) in r.enumerate().skip(1) {
-                let t = k as Real / last;
-                if !(p[i].coords.iter().all(|x| x.is_finite())
-                    && v[i].iter().all(|x| x.is_finite()))
-                {
-                    return Err(CollideError::NonFiniteNode { node: i });
-                }
-                self.nodes.push(i as u32);
-                self.rate.push(
-                    settings.friction_root + (settings.friction_tip - settings.friction_root) * t,
-                );
-                lo = lo.inf(&p[i]);
-                hi = hi.sup(&p[i]);
-                total_length += f64::from(length[i]);
-                max_mass = max_mass.max(mass[i]);
-                max_momentum = max_momentum.max(v[i].amax() * mass[i]);
-            }
+            self.nodes.extend((r.start + 1..r.end).map(|i| i as u32));
+            // The rate is linear in the node's index, so `exp(-rate dt)` is geometric in it:
+            // two exponentials a skeleton instead of one a node.
+            let step = (-(tip - root) * dt / last).exp();
+            let mut decay = (-root * dt).exp();
+            self.alpha.extend((1..r.len()).map(|_| {
+                decay *= step;
+                (1.0 - decay).clamp(0.0, 1.0)
+            }));
         }
         if self.nodes.is_empty() {
             return Ok(None);
         }
-        let mean = (total_length / self.nodes.len() as f64) as Real;
+        let (p, v, length) = (state.positions(), state.velocities(), state.length());
+        self.nodes
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut sums = ChunkSums::default();
+                for &i in chunk {
+                    let i = i as usize;
+                    if !(p[i].coords.iter().all(|x| x.is_finite())
+                        && v[i].iter().all(|x| x.is_finite()))
+                    {
+                        sums.non_finite.get_or_insert(i);
+                        continue;
+                    }
+                    sums.lo = sums.lo.inf(&p[i]);
+                    sums.hi = sums.hi.sup(&p[i]);
+                    sums.length += f64::from(length[i]);
+                }
+                sums
+            })
+            .collect_into_vec(&mut self.chunk_sums);
+        // In chunk order: the first non-finite node in front order, and the same sum on any
+        // thread count.
+        let mut total = ChunkSums::default();
+        for c in &self.chunk_sums {
+            if let Some(node) = c.non_finite {
+                return Err(CollideError::NonFiniteNode { node });
+            }
+            total.lo = total.lo.inf(&c.lo);
+            total.hi = total.hi.sup(&c.hi);
+            total.length += c.length;
+        }
+        let mean = (total.length / self.nodes.len() as f64) as Real;
         // A front of zero-length segments still gets a grid of some size.
         let mean = if mean > 0.0 { mean } else { 1e-3 };
-        Ok(Some((lo, hi, mean, max_mass, max_momentum)))
+        Ok(Some((total.lo, total.hi, mean)))
     }
 
-    /// Each node's cell and place in it, and the nodes ordered by slab of planes.
+    /// Each node's cell and place in it, and the nodes ordered by slab of planes: a counting
+    /// sort within each chunk of slots, the chunks in parallel.
     fn place(&mut self, state: &StrandState) {
         let Lattice {
             origin,
@@ -237,134 +274,122 @@ impl HairVolume {
         } = self.lattice;
         let p = state.positions();
         let inv = 1.0 / spacing;
-        self.nodes
-            .par_iter()
-            .map(|&i| {
-                let local = (p[i as usize] - origin) * inv;
-                let mut cell = [0u32; 3];
-                let mut frac = [0.0; 3];
-                for k in 0..3 {
-                    // Within the lattice by construction; clamped so that rounding cannot
-                    // take a node on the far face out of it.
-                    let c = (local[k].floor().max(0.0) as usize).min(dims[k] - 2);
-                    cell[k] = c as u32;
-                    frac[k] = (local[k] - c as Real).clamp(0.0, 1.0);
-                }
-                let [x, y, z] = cell.map(|c| c as usize);
-                Corner {
-                    base: ((z * dims[1] + y) * dims[0] + x) as u32,
-                    z: cell[2],
-                    frac,
-                }
-            })
-            .collect_into_vec(&mut self.corners);
-        // A counting sort of the nodes by slab.
         let thickness = slab_thickness(dims[2]);
         let slabs = dims[2].div_ceil(thickness);
-        self.slab_start.clear();
-        self.slab_start.resize(slabs + 1, 0);
-        for c in &self.corners {
-            self.slab_start[c.z as usize / thickness + 1] += 1;
-        }
-        for s in 1..=slabs {
-            self.slab_start[s] += self.slab_start[s - 1];
-        }
-        self.order.clear();
-        self.order.resize(self.corners.len(), 0);
-        // `cursor` runs through each slab's run; the starts are rebuilt after.
-        for (slot, c) in self.corners.iter().enumerate() {
-            let s = c.z as usize / thickness;
-            self.order[self.slab_start[s] as usize] = slot as u32;
-            self.slab_start[s] += 1;
-        }
-        for s in (1..=slabs).rev() {
-            self.slab_start[s] = self.slab_start[s - 1];
-        }
-        self.slab_start[0] = 0;
+        let n = self.nodes.len();
+        self.corners.resize(n, Corner::default());
+        self.order.resize(n, 0);
+        self.chunk_runs.resize(n.div_ceil(CHUNK) * (slabs + 1), 0);
+        self.nodes
+            .par_chunks(CHUNK)
+            .zip(self.corners.par_chunks_mut(CHUNK))
+            .zip(self.order.par_chunks_mut(CHUNK))
+            .zip(self.chunk_runs.par_chunks_mut(slabs + 1))
+            .enumerate()
+            .for_each(|(k, (((nodes, corners), order), runs))| {
+                runs.fill(0);
+                for (&i, corner) in nodes.iter().zip(corners.iter_mut()) {
+                    let local = (p[i as usize] - origin) * inv;
+                    let mut cell = [0u32; 3];
+                    let mut frac = [0.0; 3];
+                    for a in 0..3 {
+                        // Within the lattice by construction; clamped so that rounding cannot
+                        // take a node on the far face out of it.
+                        let c = (local[a].floor().max(0.0) as usize).min(dims[a] - 2);
+                        cell[a] = c as u32;
+                        frac[a] = (local[a] - c as Real).clamp(0.0, 1.0);
+                    }
+                    let [x, y, z] = cell.map(|c| c as usize);
+                    *corner = Corner {
+                        base: ((z * dims[1] + y) * dims[0] + x) as u32,
+                        z: cell[2],
+                        frac,
+                    };
+                    runs[z / thickness + 1] += 1;
+                }
+                for s in 1..=slabs {
+                    runs[s] += runs[s - 1];
+                }
+                // `runs[s]` runs through slab `s`'s places; the starts are put back after.
+                let first = (k * CHUNK) as u32;
+                for (j, c) in corners.iter().enumerate() {
+                    let s = c.z as usize / thickness;
+                    order[runs[s] as usize] = first + j as u32;
+                    runs[s] += 1;
+                }
+                for s in (1..=slabs).rev() {
+                    runs[s] = runs[s - 1];
+                }
+                runs[0] = 0;
+            });
     }
 
-    /// Mass and momentum onto the lattice (fixed point), then each point's velocity and
-    /// density.
-    fn splat(&mut self, state: &StrandState, max_mass: Real, max_momentum: Real) {
+    /// Mass and momentum onto the lattice, then each point's velocity and density.
+    fn splat(&mut self, state: &StrandState) {
         let dims = self.lattice.dims;
-        let cells = dims[0] * dims[1] * dims[2];
-        let (mass_scale, momentum_scale) = (
-            fixed_scale(max_mass, self.nodes.len()),
-            fixed_scale(max_momentum, self.nodes.len()),
-        );
-        self.sums.clear();
-        self.sums.resize(cells, [0; 4]);
-        let plane = dims[0] * dims[1];
-        let slab_len = slab_thickness(dims[2]) * plane;
+        self.points.clear();
+        self.points.resize(dims[0] * dims[1] * dims[2], [0.0; 4]);
+        let thickness = slab_thickness(dims[2]);
+        let slabs = dims[2].div_ceil(thickness);
+        let slab_len = thickness * dims[0] * dims[1];
         let (v, mass) = (state.velocities(), state.mass());
-        let (nodes, corners, order, starts) =
-            (&self.nodes, &self.corners, &self.order, &self.slab_start);
-        let slabs = starts.len() - 1;
+        let (nodes, corners, order, runs) =
+            (&self.nodes, &self.corners, &self.order, &self.chunk_runs);
         // A slab's nodes write its planes and the first plane of the next slab: even slabs
         // in parallel, then odd ones, each over its own two slabs of the lattice.
-        let splat_slab = |slab: usize, chunk: &mut [[i64; 4]]| {
+        let splat_slab = |slab: usize, chunk: &mut [[Real; 4]]| {
             if slab >= slabs {
                 return;
             }
             let offset = slab * slab_len;
-            for &slot in &order[starts[slab] as usize..starts[slab + 1] as usize] {
-                let (i, c) = (nodes[slot as usize] as usize, &corners[slot as usize]);
-                let m = f64::from(mass[i]);
-                let mv = v[i].map(f64::from) * m;
-                for (w, corner) in weights(&c.frac).into_iter().zip(corner_offsets(dims)) {
-                    let w = f64::from(w);
-                    let cell = &mut chunk[c.base as usize + corner - offset];
-                    cell[0] += to_fixed(m * w * mass_scale);
-                    for k in 0..3 {
-                        cell[k + 1] += to_fixed(mv[k] * w * momentum_scale);
+            for (k, run) in runs.chunks_exact(slabs + 1).enumerate() {
+                let first = k * CHUNK;
+                let slots = &order[first + run[slab] as usize..first + run[slab + 1] as usize];
+                for &slot in slots {
+                    let (i, c) = (nodes[slot as usize] as usize, &corners[slot as usize]);
+                    let m = mass[i];
+                    let share = [m, v[i].x * m, v[i].y * m, v[i].z * m];
+                    for (w, corner) in weights(&c.frac).into_iter().zip(corner_offsets(dims)) {
+                        let point = &mut chunk[c.base as usize + corner - offset];
+                        for (sum, x) in point.iter_mut().zip(share) {
+                            *sum += x * w;
+                        }
                     }
                 }
             }
         };
         if slab_len > 0 {
-            self.sums
+            self.points
                 .par_chunks_mut(2 * slab_len)
                 .enumerate()
                 .for_each(|(c, chunk)| splat_slab(2 * c, chunk));
-            let odd = self.sums.len().min(slab_len);
-            self.sums[odd..]
+            let odd = self.points.len().min(slab_len);
+            self.points[odd..]
                 .par_chunks_mut(2 * slab_len)
                 .enumerate()
                 .for_each(|(c, chunk)| splat_slab(2 * c + 1, chunk));
         }
-        let volume = f64::from(self.lattice.spacing).powi(3);
-        self.sums
-            .par_iter()
-            .map(|s| {
-                let m = s[0] as f64 / mass_scale;
-                if m > 0.0 {
-                    let to_velocity = 1.0 / (momentum_scale * m);
-                    Vector::new(
-                        (s[1] as f64 * to_velocity) as Real,
-                        (s[2] as f64 * to_velocity) as Real,
-                        (s[3] as f64 * to_velocity) as Real,
-                    )
-                } else {
-                    Vector::zeros()
-                }
-            })
-            .collect_into_vec(&mut self.velocity);
-        self.sums
-            .par_iter()
-            .map(|s| (s[0] as f64 / mass_scale / volume) as Real)
-            .collect_into_vec(&mut self.density);
+        let inv_volume = 1.0 / self.lattice.spacing.powi(3);
         // In lattice order, serially: the same sum on any thread count.
         let (mut m2, mut m1) = (0.0f64, 0.0f64);
-        for s in &self.sums {
-            let m = s[0] as f64 / mass_scale;
+        for s in &self.points {
+            let m = f64::from(s[0]);
             m2 += m * m;
             m1 += m;
         }
         self.mean_density = if m1 > 0.0 {
-            (m2 / (m1 * volume)) as Real
+            (m2 * f64::from(inv_volume) / m1) as Real
         } else {
             0.0
         };
+        self.points.par_iter_mut().for_each(|s| {
+            let m = s[0];
+            *s = if m > 0.0 {
+                [s[1] / m, s[2] / m, s[3] / m, m * inv_volume]
+            } else {
+                [0.0; 4]
+            };
+        });
     }
 
     /// The lattice's mass-weighted mean density at the last splat (kg/m³): the density a unit
@@ -374,31 +399,31 @@ impl HairVolume {
     }
 
     /// Each node's velocity blended toward the lattice's at its place, plus the repulsion.
-    fn sample(&mut self, state: &StrandState, settings: &VolumeSettings, dt: Real) {
+    fn sample(&mut self, state: &StrandState, settings: &VolumeSettings) {
         let dims = self.lattice.dims;
         let inv_spacing = 1.0 / self.lattice.spacing;
         let v = state.velocities();
-        let (grid_v, density) = (&self.velocity, &self.density);
+        let points = &self.points;
         let target = settings.density_limit * self.mean_density;
         let repulsion = settings.repulsion && target > 0.0;
         let speed = settings.repulsion_rate * self.lattice.spacing;
         self.nodes
             .par_iter()
             .zip(&self.corners)
-            .zip(&self.rate)
-            .map(|((&i, c), &rate)| {
+            .zip(&self.alpha)
+            .map(|((&i, c), &alpha)| {
                 let ws = weights(&c.frac);
-                let offsets = corner_offsets(dims);
+                let corner = corner_offsets(dims).map(|o| points[c.base as usize + o]);
                 let mut grid = Vector::zeros();
-                for (w, o) in ws.iter().zip(offsets) {
-                    grid += grid_v[c.base as usize + o] * *w;
+                for (w, p) in ws.iter().zip(&corner) {
+                    grid += Vector::new(p[0], p[1], p[2]) * *w;
                 }
-                let alpha = 1.0 - (-rate.max(0.0) * dt).exp();
                 let own = v[i as usize];
                 let mut out = own + (grid - own) * alpha;
                 let mut pushed = false;
                 if repulsion {
-                    let (rho, gradient) = density_and_gradient(density, c, offsets, inv_spacing);
+                    let d = corner.map(|p| p[3]);
+                    let (rho, gradient) = density_and_gradient(&d, &ws, &c.frac, inv_spacing);
                     let norm = gradient.norm();
                     if rho > target && norm > 0.0 {
                         // Decompress only: out of the over-dense place, never into a thin one.
@@ -439,26 +464,30 @@ fn lattice_over(lo: Point, hi: Point, spacing: Real, max_points: u32) -> Lattice
     }
 }
 
-/// `x` to the nearest integer, halves away from zero: an add and a truncation, where
-/// `f64::round` is a library call in the splat's inner loop; the same bits on every CPU.
-fn to_fixed(x: f64) -> i64 {
-    (x + 0.5f64.copysign(x)) as i64
-}
-
 /// Planes per slab: at least two, so that a slab's nodes reach only the next slab.
 fn slab_thickness(planes: usize) -> usize {
     planes.div_ceil(SLABS).max(2)
 }
 
-/// The power-of-two scale that turns values up to `max` into integers whose sum over `count`
-/// of them fits an `i64` with room to spare.
-fn fixed_scale(max: Real, count: usize) -> f64 {
-    let max = f64::from(max);
-    if !(max > 0.0 && max.is_finite()) {
-        return 1.0;
+/// One chunk's share of the gathering: bounds, summed segment length (m) and its first
+/// non-finite node.
+#[derive(Clone, Copy, Debug)]
+struct ChunkSums {
+    lo: Point,
+    hi: Point,
+    length: f64,
+    non_finite: Option<usize>,
+}
+
+impl Default for ChunkSums {
+    fn default() -> Self {
+        Self {
+            lo: Point::from([Real::MAX; 3]),
+            hi: Point::from([Real::MIN; 3]),
+            length: 0.0,
+            non_finite: None,
+        }
     }
-    let headroom = (count.max(1) as f64 * 8.0).log2().ceil();
-    (60.0 - headroom - max.log2().ceil()).exp2()
 }
 
 /// The trilinear weights of the cell's eight corners, in [`corner_offsets`] order.
@@ -485,21 +514,17 @@ fn corner_offsets(dims: [usize; 3]) -> [usize; 8] {
     [0, 1, dy, dy + 1, dz, dz + 1, dz + dy, dz + dy + 1]
 }
 
-/// The trilinear density at a node's place and its gradient (kg/m⁴).
+/// The trilinear density at a node's place and its gradient (kg/m⁴), from the densities at its
+/// cell's corners and their weights.
 #[inline]
 fn density_and_gradient(
-    density: &[Real],
-    c: &Corner,
-    offsets: [usize; 8],
+    d: &[Real; 8],
+    weights: &[Real; 8],
+    frac: &[Real; 3],
     inv_spacing: Real,
 ) -> (Real, Vector) {
-    let d = offsets.map(|o| density[c.base as usize + o]);
-    let [x, y, z] = c.frac;
-    let rho = weights(&c.frac)
-        .iter()
-        .zip(&d)
-        .map(|(w, d)| w * d)
-        .sum::<Real>();
+    let [x, y, z] = *frac;
+    let rho = weights.iter().zip(d).map(|(w, d)| w * d).sum::<Real>();
     // Differences along each axis, bilinear in the other two.
     let lerp = |a: Real, b: Real, t: Real| a + (b - a) * t;
     let gx = lerp(
@@ -518,25 +543,4 @@ fn density_and_gradient(
         y,
     );
     (rho, Vector::new(gx, gy, gz) * inv_spacing)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::to_fixed;
-
-    #[test]
-    fn to_fixed_rounds_like_round_away_from_ties() {
-        let mut x = 0x2545_f491_4f6c_dd1du64;
-        for _ in 0..100_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            let unit = (x >> 11) as f64 / (1u64 << 53) as f64;
-            let value = (unit - 0.5) * 2.0f64.powi((x % 60) as i32);
-            assert_eq!(to_fixed(value), value.round() as i64, "{value}");
-        }
-        for tie in [0.5f64, 1.5, 2.5, -0.5, -1.5, -2.5] {
-            assert_eq!(to_fixed(tie), tie.round() as i64, "{tie}");
-        }
-    }
 }

@@ -119,14 +119,14 @@ fn splat_and_sample_match_a_brute_force_sum() {
         for j in 0..cells {
             // By momentum: where a point holds only a sliver of a node (a weight of 1e-6),
             // the f32 weight's relative error shows in its velocity, not in what it carries.
-            let got = volume.lattice_velocity()[j].map(f64::from);
+            let got = volume.lattice_velocity(j).unwrap().map(f64::from);
             assert!(
                 (got - grid_v[j]).norm() * mass[j] <= 1e-5 * vmax * mass_max,
                 "point {j}: {got} vs {}",
                 grid_v[j]
             );
             let rho = mass[j] / h.powi(3);
-            assert!((f64::from(volume.lattice_density()[j]) - rho).abs() <= 1e-5 * rho_max);
+            assert!((f64::from(volume.lattice_density(j).unwrap()) - rho).abs() <= 1e-5 * rho_max);
         }
         let rate = |k: usize| {
             let t = k as f64 / 9.0;
@@ -174,12 +174,12 @@ fn repulsion_pushes_out_of_dense_hair_only() {
     );
     let lattice = volume.lattice();
     let h = f64::from(lattice.spacing);
-    let density = volume.lattice_density();
+    let density = |j: usize| volume.lattice_density(j).unwrap();
     let limit = f64::from(volume.mean_density());
     let rho_at = |q: &Point| -> f64 {
         brute_weights(q, &lattice.origin, h, lattice.dims)
             .into_iter()
-            .map(|(j, w)| w * f64::from(density[j]))
+            .map(|(j, w)| w * f64::from(density(j)))
             .sum()
     };
     let (p, v) = (state.positions(), state.velocities());
@@ -225,12 +225,14 @@ fn splat_is_bit_identical_on_1_2_and_5_threads() {
             let report = volume.blend(&state, &front, &settings, 1.0 / 60.0).unwrap();
             assert!(report.repelled > 0);
             let b = |v: &Vector| [v.x, v.y, v.z].map(f32::to_bits);
+            let points = 0..report.cells;
             (
-                volume.lattice_velocity().iter().map(b).collect(),
-                volume
-                    .lattice_density()
-                    .iter()
-                    .map(|d| d.to_bits())
+                points
+                    .clone()
+                    .map(|j| b(&volume.lattice_velocity(j).unwrap()))
+                    .collect(),
+                points
+                    .map(|j| volume.lattice_density(j).unwrap().to_bits())
                     .collect(),
                 volume.targets().iter().map(|t| b(&t.1)).collect(),
             )
