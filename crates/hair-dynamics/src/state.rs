@@ -175,6 +175,8 @@ pub struct StrandState {
     pub(crate) group_scratch: Vec<u32>,
     /// Per node slot, the inverse of its joint's inertia, while velocity constraints run.
     pub(crate) inertia_scratch: Vec<Real>,
+    /// The pool size and skeleton length the workers' lane buffers were last grown for.
+    pub(crate) lanes_grown: Option<(usize, usize)>,
 }
 
 /// `clone_from` copies into the buffers already held (a reset or a rollback takes no new
@@ -230,6 +232,7 @@ impl Clone for StrandState {
             order_scratch,
             group_scratch,
             inertia_scratch,
+            lanes_grown: _,
         } = self;
         offsets.clone_from(&from.offsets);
         counts.clone_from(&from.counts);
@@ -272,6 +275,7 @@ impl Clone for StrandState {
         order_scratch.clone_from(&from.order_scratch);
         group_scratch.clone_from(&from.group_scratch);
         inertia_scratch.clone_from(&from.inertia_scratch);
+        // `lanes_grown` is not copied: it describes the pool's buffers, which stay grown.
     }
 }
 

@@ -225,15 +225,25 @@ thread_local! {
     static LANE_SCRATCH: RefCell<LaneScratch> = RefCell::new(LaneScratch::default());
 }
 
+/// Grows the lane buffers of every thread of the current pool to `n` nodes. A worker's buffers
+/// otherwise grew at the first group it met, in whatever step work stealing first gave it one:
+/// a step long after the first could allocate, or not, by the schedule.
+pub(super) fn grow_every_worker(n: usize) {
+    rayon::broadcast(|_| LANE_SCRATCH.with(|cell| cell.borrow_mut().reserve(n)));
+}
+
 /// Whether the lane step covers these settings and environment: the coupled step by its
 /// structured solve, with no turning or accelerating-in-rotation head.
 pub(super) fn covers(sh: &Shared<'_>) -> bool {
-    let s = &sh.settings;
+    covers_integrator(&sh.settings) && !sh.env.has_frame_motion
+}
+
+/// Whether the lane step covers these settings in some environment.
+pub(super) fn covers_integrator(s: &StepSettings) -> bool {
     matches!(
         s.integrator,
         Integrator::ImplicitCoupled | Integrator::ImplicitBdf2
     ) && s.solver == LinearSolver::Structured
-        && !sh.env.has_frame_motion
 }
 
 /// What became of one lane's strand.

@@ -432,8 +432,7 @@ thread_local! {
 struct Shared<'a> {
     state_offsets: &'a [u32],
     counts: &'a [u32],
-    /// The most nodes of any skeleton: every worker's lane buffers grow to it at once, so which
-    /// worker runs which strands (work stealing) never decides whether a step allocates.
+    /// The most nodes of any skeleton: the lane buffers' size.
     max_count: usize,
     active: &'a [bool],
     rest_theta: &'a [Real],
@@ -724,13 +723,21 @@ impl StrandState {
         let nodes = self.theta.len();
         let skeletons = self.offsets.len();
         let dormant = self.active.iter().filter(|a| !**a).count();
+        let max_count = self.counts.iter().max().map_or(0, |&c| c as usize);
+        // Every worker's lane buffers grown at once, the first time this state steps in a
+        // pool of this size or meets a longer skeleton (see `grow_every_worker`).
+        let warmth = (rayon::current_num_threads(), max_count);
+        if self.lanes_grown != Some(warmth) && lanes::covers_integrator(settings) {
+            lanes::grow_every_worker(max_count);
+            self.lanes_grown = Some(warmth);
+        }
         let (bad, dense_fallbacks) = {
             let local = env.local();
             let lane_air = local.has_air.then(|| lanes::LaneAir::new(&local));
             let sh = Shared {
                 state_offsets: &self.offsets,
                 counts: &self.counts,
-                max_count: self.counts.iter().max().map_or(0, |&c| c as usize),
+                max_count,
                 active: &self.active,
                 rest_theta: &self.rest_theta,
                 rest_phi: &self.rest_phi,
