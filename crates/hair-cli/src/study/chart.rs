@@ -96,6 +96,10 @@ fn panel(
         .x_labels(8)
         .x_label_formatter(&|x| format!("{x:.0}"))
         .y_desc(y_desc)
+        .y_labels(8)
+        // Plotters' own labels for log ticks print the float as it is (0.6000000000000001),
+        // and the long ones overran the axis.
+        .y_label_formatter(&|y| mm(*y))
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(err)?;
