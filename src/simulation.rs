@@ -8,9 +8,8 @@
 use crate::lod_stage::{self, LodStage};
 use crate::scene::{HeadMotionSpec, LodPolicy, Scene};
 use crate::{HairError, LoadedScene, drivers, hairstyle};
-use hair_collide::{
-    BodyConstraint, HairHairModel, HairHairStage, Localization, Sections, make_groom_rest,
-};
+use hair_collide::{BodyConstraint, HairHairModel as Model, HairHairStage, Localization};
+use hair_collide::{Sections, make_groom_rest};
 use hair_dynamics::{Environment, HeadPoseTrack, Material, SkeletonId, StepSettings, StrandState};
 use hair_grid::{Grid, GridConfig};
 use hair_lod::{Hierarchy, NodeKind};
@@ -324,10 +323,8 @@ impl Simulation {
     /// reads (`DistanceField::fill_band` on [`MeshBody::field`]): from [`PREFILL_INSIDE`] inside
     /// the surface to the near field's margin outside. The steps otherwise compute each the
     /// first time hair reaches it. Returns how many it computed. For interactive use: it moves
-    /// the exact queries out of the first frames, which otherwise run slow (`hair run wardlin
-    /// --prefill-field` on two cores: about 773,000 samples in 0.7 s, its `prefill_ms`; the
-    /// first frame's `ms_hair_object` in `metrics.json` then 1.5 ms instead of 23 ms). The
-    /// results are the same with or without it.
+    /// the exact queries out of the first frames, which otherwise run slow. The results are the
+    /// same with or without it.
     pub fn prefill_body_field(&self) -> usize {
         let Some(body) = self.body.as_ref() else {
             return 0;
@@ -547,23 +544,21 @@ impl Simulation {
     }
 
     /// The grid stage over the front's segments (head frame, where the body is static): the
-    /// pair grid when the hair-hair model searches this step (`Pairs` only), localization
-    /// measures activity or a tool script reads its cells, then localization.
+    /// sections when the pairs, localization or a tool script read them (the volume never
+    /// does), the pair grid when the pairs search this step or those two read it, localization.
     fn build_grid(&mut self) -> Result<(), HairError> {
         // The pairs of the last search are tested again while young enough and the hair is the
         // same hair: the same front (a new one drops them) and no tool script (a cut, a bond).
         let reuse_allowed = self.salon.script().events.is_empty();
         let search = self.hair_hair.plan(&self.scene.collision, reuse_allowed);
-        // The sections are read by the exact hair-hair model, localization and the tools; the
-        // volume alone never reads them (a tenth of a dense frame's cost to build).
-        let pairs = self.scene.collision.hair_hair == HairHairModel::Pairs;
-        if pairs || self.scene.localization || !reuse_allowed {
+        let local = self.scene.localization;
+        if self.scene.collision.hair_hair == Model::Pairs || local || !reuse_allowed {
             self.sections.build(&self.state, &self.front_nodes);
         }
-        if search || self.scene.localization || !reuse_allowed {
+        if search || local || !reuse_allowed {
             self.grid.rebuild(&self.sections.sections)?;
         }
-        if self.scene.localization {
+        if local {
             let (state, touched) = (&mut self.state, self.salon.touched_nodes());
             let (grid, sections, front) = (&self.grid, &self.sections, &self.front_nodes);
             let dt = self.settings.dt;
