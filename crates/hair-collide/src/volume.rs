@@ -192,8 +192,8 @@ impl HairVolume {
         &self.targets
     }
 
-    /// Lists the nodes and their blend fractions over `dt`; returns the bounds of their positions and their mean
-    /// segment length, or `None` when there is no node.
+    /// Lists the nodes and their blend fractions over `dt`; returns the bounds of their
+    /// positions and their mean segment length, or `None` when there is no node.
     fn gather(
         &mut self,
         state: &StrandState,
