@@ -83,8 +83,8 @@ pub struct HairVolume {
     /// Per lattice point: mass and momentum while splatting, then velocity (m/s, zero where no
     /// hair is) and density (kg/m³).
     points: Vec<[Real; 4]>,
-    /// The blended velocities and whether the repulsion pushed the node.
-    blended: Vec<(Vector, bool)>,
+    /// Per node, whether the repulsion pushed it.
+    pushed: Vec<bool>,
     targets: Vec<(u32, Vector)>,
     /// The forces that make the targets' changes over a step.
     forces: Vec<(u32, Vector)>,
@@ -128,16 +128,7 @@ impl HairVolume {
         settings: &VolumeSettings,
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
-        let report = self.blend_nodes(state, front, settings, dt)?;
-        let (mass, wetness, velocity) = (state.mass(), state.wetness(), state.velocities());
-        self.nodes
-            .par_iter()
-            .zip(&self.blended)
-            .map(|(&i, &(target, _))| {
-                let n = i as usize;
-                (i, (target - velocity[n]) * ((mass[n] + wetness[n]) / dt))
-            })
-            .collect_into_vec(&mut self.forces);
+        let report = self.blend_nodes(state, front, settings, dt, Output::Forces)?;
         state.add_forces_for_next_step(&self.forces)?;
         Ok(report)
     }
@@ -152,38 +143,35 @@ impl HairVolume {
         settings: &VolumeSettings,
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
-        let report = self.blend_nodes(state, front, settings, dt)?;
-        self.nodes
-            .par_iter()
-            .zip(&self.blended)
-            .map(|(&i, &(v, _))| (i, v))
-            .collect_into_vec(&mut self.targets);
-        Ok(report)
+        self.blend_nodes(state, front, settings, dt, Output::Targets)
     }
 
-    /// [`HairVolume::blend`] into `blended`, by slot of `nodes`.
+    /// [`HairVolume::blend`] into `targets`, or into `forces` as [`HairVolume::respond`] takes
+    /// them.
     fn blend_nodes(
         &mut self,
         state: &StrandState,
         front: &[u32],
         settings: &VolumeSettings,
         dt: Real,
+        output: Output,
     ) -> Result<VolumeReport, CollideError> {
         self.targets.clear();
+        self.forces.clear();
         let Some((lo, hi, mean_length)) = self.gather(state, front, settings, dt)? else {
             self.lattice = Lattice::default();
             self.points.clear();
-            self.blended.clear();
+            self.pushed.clear();
             return Ok(VolumeReport::default());
         };
         self.lattice = lattice_over(lo, hi, settings.cell_size * mean_length, settings.max_cells);
         self.place(state);
         self.splat(state);
-        self.sample(state, settings);
+        self.sample(state, settings, dt, output);
         Ok(VolumeReport {
             nodes: self.nodes.len(),
             cells: self.points.len(),
-            repelled: self.blended.par_iter().filter(|b| b.1).count(),
+            repelled: self.pushed.par_iter().filter(|&&p| p).count(),
         })
     }
 
@@ -398,8 +386,9 @@ impl HairVolume {
         self.mean_density
     }
 
-    /// Each node's velocity blended toward the lattice's at its place, plus the repulsion.
-    fn sample(&mut self, state: &StrandState, settings: &VolumeSettings) {
+    /// Each node's velocity blended toward the lattice's at its place, plus the repulsion, into
+    /// `targets`, or as the force that makes the change over `dt` into `forces`.
+    fn sample(&mut self, state: &StrandState, settings: &VolumeSettings, dt: Real, output: Output) {
         let dims = self.lattice.dims;
         let inv_spacing = 1.0 / self.lattice.spacing;
         let v = state.velocities();
@@ -407,35 +396,55 @@ impl HairVolume {
         let target = settings.density_limit * self.mean_density;
         let repulsion = settings.repulsion && target > 0.0;
         let speed = settings.repulsion_rate * self.lattice.spacing;
-        self.nodes
-            .par_iter()
-            .zip(&self.corners)
-            .zip(&self.alpha)
-            .map(|((&i, c), &alpha)| {
-                let ws = weights(&c.frac);
-                let corner = corner_offsets(dims).map(|o| points[c.base as usize + o]);
-                let mut grid = Vector::zeros();
-                for (w, p) in ws.iter().zip(&corner) {
-                    grid += Vector::new(p[0], p[1], p[2]) * *w;
+        let blend = |((&i, c), &alpha): ((&u32, &Corner), &Real)| {
+            let ws = weights(&c.frac);
+            let corner = corner_offsets(dims).map(|o| points[c.base as usize + o]);
+            let mut grid = Vector::zeros();
+            for (w, p) in ws.iter().zip(&corner) {
+                grid += Vector::new(p[0], p[1], p[2]) * *w;
+            }
+            let own = v[i as usize];
+            let mut out = own + (grid - own) * alpha;
+            let mut pushed = false;
+            if repulsion {
+                let d = corner.map(|p| p[3]);
+                let (rho, gradient) = density_and_gradient(&d, &ws, &c.frac, inv_spacing);
+                let norm = gradient.norm();
+                if rho > target && norm > 0.0 {
+                    // Decompress only: out of the over-dense place, never into a thin one.
+                    let excess = ((rho - target) / target).min(1.0);
+                    out -= gradient * (speed * excess / norm);
+                    pushed = true;
                 }
-                let own = v[i as usize];
-                let mut out = own + (grid - own) * alpha;
-                let mut pushed = false;
-                if repulsion {
-                    let d = corner.map(|p| p[3]);
-                    let (rho, gradient) = density_and_gradient(&d, &ws, &c.frac, inv_spacing);
-                    let norm = gradient.norm();
-                    if rho > target && norm > 0.0 {
-                        // Decompress only: out of the over-dense place, never into a thin one.
-                        let excess = ((rho - target) / target).min(1.0);
-                        out -= gradient * (speed * excess / norm);
-                        pushed = true;
-                    }
-                }
-                (out, pushed)
-            })
-            .collect_into_vec(&mut self.blended);
+            }
+            ((i, out), pushed)
+        };
+        let nodes = self.nodes.par_iter().zip(&self.corners).zip(&self.alpha);
+        match output {
+            Output::Targets => nodes
+                .map(blend)
+                .unzip_into_vecs(&mut self.targets, &mut self.pushed),
+            Output::Forces => {
+                let (mass, wetness) = (state.mass(), state.wetness());
+                nodes
+                    .map(blend)
+                    .map(|((i, target), pushed)| {
+                        let n = i as usize;
+                        let force = (target - v[n]) * ((mass[n] + wetness[n]) / dt);
+                        ((i, force), pushed)
+                    })
+                    .unzip_into_vecs(&mut self.forces, &mut self.pushed)
+            }
+        }
     }
+}
+
+/// What the blend writes: the velocities ([`HairVolume::blend`]) or the forces
+/// ([`HairVolume::respond`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Output {
+    Targets,
+    Forces,
 }
 
 /// The lattice over `lo..hi` with spacing `spacing` (widened until it has at most `max_points`
