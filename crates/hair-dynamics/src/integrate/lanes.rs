@@ -270,7 +270,8 @@ pub(super) fn step_group(
 ) -> [LaneOutcome; LANES] {
     LANE_SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
-        guard.reserve(n.max(sh.max_count));
+        // Grown already by `grow_every_worker`: this allocates nothing.
+        guard.reserve(n);
         step_group_in(run, sh, members, n, &mut guard)
     })
 }

@@ -432,8 +432,6 @@ thread_local! {
 struct Shared<'a> {
     state_offsets: &'a [u32],
     counts: &'a [u32],
-    /// The most nodes of any skeleton: the lane buffers' size.
-    max_count: usize,
     active: &'a [bool],
     rest_theta: &'a [Real],
     rest_phi: &'a [Real],
@@ -737,7 +735,6 @@ impl StrandState {
             let sh = Shared {
                 state_offsets: &self.offsets,
                 counts: &self.counts,
-                max_count,
                 active: &self.active,
                 rest_theta: &self.rest_theta,
                 rest_phi: &self.rest_phi,
