@@ -73,7 +73,7 @@ pub struct StepStats {
     pub dense_fallbacks: usize,
     /// Rendered vertices.
     pub render_vertices: usize,
-    /// FNV-1a hash of the state's float bits.
+    /// Hash of the state's float bits ([`StrandState::state_hash`]).
     pub state_hash: u64,
     // salon (issue 8): tool counters, flattened into the per-frame metrics.
     /// Salon tool counters (water, bonds, cuts, fallen pieces, grabbed points).

@@ -4,22 +4,29 @@
 //! toward the grid's velocity at its place (friction between neighbouring strands), and a push
 //! down the density gradient where the hair is packed more densely than a target.
 //!
-//! The splat runs in parallel over slabs of grid planes, each slab's nodes in a fixed order
-//! and the slabs in a fixed two-phase order, so every lattice point adds the same numbers in
-//! the same order on any thread count: the same bits.
+//! The work runs in parallel over fixed parts of the active skeletons, and the splat into a
+//! few private copies of the lattice, each over fixed parts, summed in a fixed order: every
+//! lattice point adds the same numbers in the same order on any thread count, so the same bits.
 
 use crate::{CollideError, VolumeSettings};
 use hair_dynamics::{SkeletonId, StrandState};
 use hair_ssv::{Point, Real, Vector};
 use rayon::prelude::*;
 
-/// Slabs of grid planes the splat is cut into: the parallel grain. It fixes the order of the
-/// sums, so it is a constant, never the thread count.
-const SLABS: usize = 16;
+/// Nodes per part of the skeletons (whole skeletons, so a little more): the parallel grain of
+/// the gathering and the sampling, and the unit the splat's copies are cut along. A constant,
+/// so that the sums' order never depends on the thread count.
+const PART_NODES: usize = 4096;
 
-/// Nodes per chunk of the gathering's sums and of the sort by slab: a constant, so that the
-/// segment lengths add in the same order on any thread count.
-const CHUNK: usize = 4096;
+/// The splat's private copies of the lattice: at most this many, and no more than one per
+/// [`COPY_NODES`] nodes or per lattice's worth of nodes, so that zeroing and summing the copies
+/// costs less than the splat they spare from sorting.
+const MAX_COPIES: usize = 4;
+const COPY_NODES: usize = 8192;
+
+/// Lattice points are summed from the copies in this many fixed ranges (and the mean density's
+/// sums with them).
+const POINT_RANGES: usize = 64;
 
 /// What one volume response did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -53,41 +60,50 @@ impl Default for Lattice {
     }
 }
 
-/// Where a node falls in the lattice: the index of its cell's lowest corner and its fractional
-/// place in the cell, each in [0, 1].
+impl Lattice {
+    /// The index of the lowest corner of the cell holding `p`, and `p`'s place in that cell,
+    /// each coordinate in [0, 1]; `inv` is `1 / spacing`.
+    #[inline]
+    fn cell_of(&self, p: &Point, inv: Real) -> (usize, [Real; 3]) {
+        let local = (p - self.origin) * inv;
+        let mut cell = [0usize; 3];
+        let mut frac = [0.0; 3];
+        for a in 0..3 {
+            // Within the lattice by construction; clamped so that rounding cannot take a node
+            // on the far face out of it.
+            let c = (local[a].floor().max(0.0) as usize).min(self.dims[a] - 2);
+            cell[a] = c;
+            frac[a] = (local[a] - c as Real).clamp(0.0, 1.0);
+        }
+        let [x, y, z] = cell;
+        ((z * self.dims[1] + y) * self.dims[0] + x, frac)
+    }
+}
+
+/// A run of whole skeletons (indices into [`HairVolume`]'s sorted skeleton list).
 #[derive(Clone, Copy, Debug, Default)]
-struct Corner {
-    base: u32,
-    z: u32,
-    frac: [Real; 3],
+struct Part {
+    start: usize,
+    end: usize,
 }
 
 /// The volume model with its scratch buffers (no allocation once grown).
 #[derive(Debug, Default)]
 pub struct HairVolume {
     lattice: Lattice,
-    /// The nodes splatted (every node of an active skeleton but its root), skeleton by
-    /// skeleton in front order.
-    nodes: Vec<u32>,
-    /// Per chunk of [`CHUNK`] nodes: bounds, summed segment length, first non-finite node.
-    chunk_sums: Vec<ChunkSums>,
-    /// Each listed node's blend fraction this step, `1 - exp(-rate dt)`, the rate (1/s) from
-    /// the root-to-tip profile.
-    alpha: Vec<Real>,
-    corners: Vec<Corner>,
-    /// Node slots (into `nodes`), each chunk of [`CHUNK`] slots ordered by slab within the
-    /// chunk; per chunk, where each slab's run starts (`slabs + 1` entries, from the chunk's
-    /// start). Slab `s`'s nodes in slot order are the chunks' runs of `s` in chunk order.
-    order: Vec<u32>,
-    chunk_runs: Vec<u32>,
-    /// Per lattice point: mass and momentum while splatting, then velocity (m/s, zero where no
-    /// hair is) and density (kg/m³).
+    /// The active skeletons of the front, ascending (their nodes but the roots are splatted).
+    skeletons: Vec<u32>,
+    /// The skeletons cut into parts of about [`PART_NODES`] nodes.
+    parts: Vec<Part>,
+    /// Nodes splatted.
+    nodes: usize,
+    /// Per part: bounds, summed segment length, first non-finite node.
+    part_sums: Vec<PartSums>,
+    /// Per lattice point: velocity (m/s, zero where no hair is) and density (kg/m³).
     points: Vec<[Real; 4]>,
-    /// Per node, whether the repulsion pushed it.
-    pushed: Vec<bool>,
+    /// The splat's copies of the lattice, one after the other: mass and momentum.
+    copies: Vec<[Real; 4]>,
     targets: Vec<(u32, Vector)>,
-    /// The forces that make the targets' changes over a step.
-    forces: Vec<(u32, Vector)>,
     /// The lattice's mass-weighted mean density (kg/m³): the repulsion's reference.
     mean_density: Real,
 }
@@ -115,9 +131,9 @@ impl HairVolume {
 
     /// The response: every active node's velocity blended toward the grid's and pushed out of
     /// over-dense places ([`HairVolume::blend`]), applied as the force that makes that change
-    /// over the coming step ([`StrandState::add_forces_for_next_step`]): the step carries it to
-    /// the joints through the strand model's inertia, so the friction takes energy out of the
-    /// model as it does out of the nodes. Setting the velocities and fitting rates to them
+    /// over the coming step ([`StrandState::add_node_forces_for_next_step`]): the step carries
+    /// it to the joints through the strand model's inertia, so the friction takes energy out of
+    /// the model as it does out of the nodes. Setting the velocities and fitting rates to them
     /// instead (the first form of this model) fed the model energy it never had: a velocity
     /// change at one node is met by counter-rotating neighbouring joints whose rates each carry
     /// the inertia of the whole hair beyond them.
@@ -128,9 +144,33 @@ impl HairVolume {
         settings: &VolumeSettings,
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
-        let report = self.blend_nodes(state, front, settings, dt, Output::Forces)?;
-        state.add_forces_for_next_step(&self.forces)?;
-        Ok(report)
+        self.targets.clear();
+        if !self.splat_front(state, front, settings)? {
+            return Ok(VolumeReport::default());
+        }
+        let sampler = Sampler::new(self, settings, dt);
+        let repelled = state.add_node_forces_for_next_step(|state, forces| {
+            let first = |part: &Part| state.nodes(SkeletonId(self.skeletons[part.start])).start;
+            let (mass, wetness, v) = (state.mass(), state.wetness(), state.velocities());
+            let parts = &self.parts;
+            // Each part's nodes lie between its first skeleton's first node and the next
+            // part's, so the parts split the forces into disjoint runs.
+            let sample_parts = |parts: &[Part], forces: &mut [Vector], base: usize| {
+                let mut repelled = 0;
+                for part in parts {
+                    for &s in &self.skeletons[part.start..part.end] {
+                        sampler.skeleton(state, s, |i, target, pushed| {
+                            let force = (target - v[i]) * ((mass[i] + wetness[i]) / dt);
+                            forces[i - base] += force;
+                            repelled += usize::from(pushed);
+                        });
+                    }
+                }
+                repelled
+            };
+            split_parts(parts, forces, 0, &first, &sample_parts)
+        });
+        Ok(self.report(repelled))
     }
 
     /// The velocity each active node of `front` (its root excepted) is to take this step, into
@@ -143,36 +183,29 @@ impl HairVolume {
         settings: &VolumeSettings,
         dt: Real,
     ) -> Result<VolumeReport, CollideError> {
-        self.blend_nodes(state, front, settings, dt, Output::Targets)
+        self.targets.clear();
+        if !self.splat_front(state, front, settings)? {
+            return Ok(VolumeReport::default());
+        }
+        let mut targets = std::mem::take(&mut self.targets);
+        let sampler = Sampler::new(self, settings, dt);
+        let mut repelled = 0;
+        for &s in &self.skeletons {
+            sampler.skeleton(state, s, |i, target, pushed| {
+                targets.push((i as u32, target));
+                repelled += usize::from(pushed);
+            });
+        }
+        self.targets = targets;
+        Ok(self.report(repelled))
     }
 
-    /// [`HairVolume::blend`] into `targets`, or into `forces` as [`HairVolume::respond`] takes
-    /// them.
-    fn blend_nodes(
-        &mut self,
-        state: &StrandState,
-        front: &[u32],
-        settings: &VolumeSettings,
-        dt: Real,
-        output: Output,
-    ) -> Result<VolumeReport, CollideError> {
-        self.targets.clear();
-        self.forces.clear();
-        let Some((lo, hi, mean_length)) = self.gather(state, front, settings, dt)? else {
-            self.lattice = Lattice::default();
-            self.points.clear();
-            self.pushed.clear();
-            return Ok(VolumeReport::default());
-        };
-        self.lattice = lattice_over(lo, hi, settings.cell_size * mean_length, settings.max_cells);
-        self.place(state);
-        self.splat(state);
-        self.sample(state, settings, dt, output);
-        Ok(VolumeReport {
-            nodes: self.nodes.len(),
+    fn report(&self, repelled: usize) -> VolumeReport {
+        VolumeReport {
+            nodes: self.nodes,
             cells: self.points.len(),
-            repelled: self.pushed.par_iter().filter(|&&p| p).count(),
-        })
+            repelled,
+        }
     }
 
     /// The velocities of the last [`HairVolume::blend`], by node.
@@ -180,65 +213,88 @@ impl HairVolume {
         &self.targets
     }
 
-    /// Lists the nodes and their blend fractions over `dt`; returns the bounds of their
+    /// Gathers the front's active skeletons, places the lattice over them and splats them;
+    /// false when there is no node to splat.
+    fn splat_front(
+        &mut self,
+        state: &StrandState,
+        front: &[u32],
+        settings: &VolumeSettings,
+    ) -> Result<bool, CollideError> {
+        let Some((lo, hi, mean_length)) = self.gather(state, front)? else {
+            self.lattice = Lattice::default();
+            self.points.clear();
+            return Ok(false);
+        };
+        self.lattice = lattice_over(lo, hi, settings.cell_size * mean_length, settings.max_cells);
+        self.splat(state);
+        Ok(true)
+    }
+
+    /// Lists the active skeletons and cuts them into parts; returns the bounds of their nodes'
     /// positions and their mean segment length, or `None` when there is no node.
     fn gather(
         &mut self,
         state: &StrandState,
         front: &[u32],
-        settings: &VolumeSettings,
-        dt: Real,
     ) -> Result<Option<(Point, Point, Real)>, CollideError> {
-        self.nodes.clear();
-        self.alpha.clear();
-        let (root, tip) = (
-            settings.friction_root.max(0.0),
-            settings.friction_tip.max(0.0),
+        self.skeletons.clear();
+        self.skeletons.extend(
+            front.iter().copied().filter(|&s| {
+                state.is_active(SkeletonId(s)) && state.nodes(SkeletonId(s)).len() > 1
+            }),
         );
-        for &s in front {
-            let id = SkeletonId(s);
-            if !state.is_active(id) {
-                continue;
+        // Ascending, each once, so that the parts own disjoint runs of nodes.
+        self.skeletons.sort_unstable();
+        self.skeletons.dedup();
+        self.parts.clear();
+        self.nodes = 0;
+        let mut part = Part::default();
+        let mut in_part = 0;
+        for (k, &s) in self.skeletons.iter().enumerate() {
+            let n = state.nodes(SkeletonId(s)).len() - 1;
+            self.nodes += n;
+            in_part += n;
+            if in_part >= PART_NODES {
+                part.end = k + 1;
+                self.parts.push(part);
+                part.start = k + 1;
+                in_part = 0;
             }
-            let r = state.nodes(id);
-            let last = (r.len().max(2) - 1) as Real;
-            self.nodes.extend((r.start + 1..r.end).map(|i| i as u32));
-            // The rate is linear in the node's index, so `exp(-rate dt)` is geometric in it:
-            // two exponentials a skeleton instead of one a node.
-            let step = (-(tip - root) * dt / last).exp();
-            let mut decay = (-root * dt).exp();
-            self.alpha.extend((1..r.len()).map(|_| {
-                decay *= step;
-                (1.0 - decay).clamp(0.0, 1.0)
-            }));
         }
-        if self.nodes.is_empty() {
+        if in_part > 0 {
+            part.end = self.skeletons.len();
+            self.parts.push(part);
+        }
+        if self.nodes == 0 {
             return Ok(None);
         }
         let (p, v, length) = (state.positions(), state.velocities(), state.length());
-        self.nodes
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut sums = ChunkSums::default();
-                for &i in chunk {
-                    let i = i as usize;
-                    if !(p[i].coords.iter().all(|x| x.is_finite())
-                        && v[i].iter().all(|x| x.is_finite()))
-                    {
-                        sums.non_finite.get_or_insert(i);
-                        continue;
+        let skeletons = &self.skeletons;
+        self.parts
+            .par_iter()
+            .map(|part| {
+                let mut sums = PartSums::default();
+                for &s in &skeletons[part.start..part.end] {
+                    let r = state.nodes(SkeletonId(s));
+                    for i in r.start + 1..r.end {
+                        if !(p[i].coords.iter().all(|x| x.is_finite())
+                            && v[i].iter().all(|x| x.is_finite()))
+                        {
+                            sums.non_finite.get_or_insert(i);
+                            continue;
+                        }
+                        sums.lo = sums.lo.inf(&p[i]);
+                        sums.hi = sums.hi.sup(&p[i]);
+                        sums.length += f64::from(length[i]);
                     }
-                    sums.lo = sums.lo.inf(&p[i]);
-                    sums.hi = sums.hi.sup(&p[i]);
-                    sums.length += f64::from(length[i]);
                 }
                 sums
             })
-            .collect_into_vec(&mut self.chunk_sums);
-        // In chunk order: the first non-finite node in front order, and the same sum on any
-        // thread count.
-        let mut total = ChunkSums::default();
-        for c in &self.chunk_sums {
+            .collect_into_vec(&mut self.part_sums);
+        // In part order: the first non-finite node, and the same sum on any thread count.
+        let mut total = PartSums::default();
+        for c in &self.part_sums {
             if let Some(node) = c.non_finite {
                 return Err(CollideError::NonFiniteNode { node });
             }
@@ -246,138 +302,88 @@ impl HairVolume {
             total.hi = total.hi.sup(&c.hi);
             total.length += c.length;
         }
-        let mean = (total.length / self.nodes.len() as f64) as Real;
+        let mean = (total.length / self.nodes as f64) as Real;
         // A front of zero-length segments still gets a grid of some size.
         let mean = if mean > 0.0 { mean } else { 1e-3 };
         Ok(Some((total.lo, total.hi, mean)))
     }
 
-    /// Each node's cell and place in it, and the nodes ordered by slab of planes: a counting
-    /// sort within each chunk of slots, the chunks in parallel.
-    fn place(&mut self, state: &StrandState) {
-        let Lattice {
-            origin,
-            spacing,
-            dims,
-        } = self.lattice;
-        let p = state.positions();
-        let inv = 1.0 / spacing;
-        let thickness = slab_thickness(dims[2]);
-        let slabs = dims[2].div_ceil(thickness);
-        let n = self.nodes.len();
-        self.corners.resize(n, Corner::default());
-        self.order.resize(n, 0);
-        self.chunk_runs.resize(n.div_ceil(CHUNK) * (slabs + 1), 0);
-        self.nodes
-            .par_chunks(CHUNK)
-            .zip(self.corners.par_chunks_mut(CHUNK))
-            .zip(self.order.par_chunks_mut(CHUNK))
-            .zip(self.chunk_runs.par_chunks_mut(slabs + 1))
-            .enumerate()
-            .for_each(|(k, (((nodes, corners), order), runs))| {
-                runs.fill(0);
-                for (&i, corner) in nodes.iter().zip(corners.iter_mut()) {
-                    let local = (p[i as usize] - origin) * inv;
-                    let mut cell = [0u32; 3];
-                    let mut frac = [0.0; 3];
-                    for a in 0..3 {
-                        // Within the lattice by construction; clamped so that rounding cannot
-                        // take a node on the far face out of it.
-                        let c = (local[a].floor().max(0.0) as usize).min(dims[a] - 2);
-                        cell[a] = c as u32;
-                        frac[a] = (local[a] - c as Real).clamp(0.0, 1.0);
-                    }
-                    let [x, y, z] = cell.map(|c| c as usize);
-                    *corner = Corner {
-                        base: ((z * dims[1] + y) * dims[0] + x) as u32,
-                        z: cell[2],
-                        frac,
-                    };
-                    runs[z / thickness + 1] += 1;
-                }
-                for s in 1..=slabs {
-                    runs[s] += runs[s - 1];
-                }
-                // `runs[s]` runs through slab `s`'s places; the starts are put back after.
-                let first = (k * CHUNK) as u32;
-                for (j, c) in corners.iter().enumerate() {
-                    let s = c.z as usize / thickness;
-                    order[runs[s] as usize] = first + j as u32;
-                    runs[s] += 1;
-                }
-                for s in (1..=slabs).rev() {
-                    runs[s] = runs[s - 1];
-                }
-                runs[0] = 0;
-            });
-    }
-
-    /// Mass and momentum onto the lattice, then each point's velocity and density.
+    /// Mass and momentum onto the lattice, then each point's velocity and density. Each copy
+    /// of the lattice takes a fixed run of parts, its nodes in order; the copies are summed in
+    /// order.
     fn splat(&mut self, state: &StrandState) {
-        let dims = self.lattice.dims;
-        self.points.clear();
-        self.points.resize(dims[0] * dims[1] * dims[2], [0.0; 4]);
-        let thickness = slab_thickness(dims[2]);
-        let slabs = dims[2].div_ceil(thickness);
-        let slab_len = thickness * dims[0] * dims[1];
-        let (v, mass) = (state.velocities(), state.mass());
-        let (nodes, corners, order, runs) =
-            (&self.nodes, &self.corners, &self.order, &self.chunk_runs);
-        // A slab's nodes write its planes and the first plane of the next slab: even slabs
-        // in parallel, then odd ones, each over its own two slabs of the lattice.
-        let splat_slab = |slab: usize, chunk: &mut [[Real; 4]]| {
-            if slab >= slabs {
-                return;
-            }
-            let offset = slab * slab_len;
-            for (k, run) in runs.chunks_exact(slabs + 1).enumerate() {
-                let first = k * CHUNK;
-                let slots = &order[first + run[slab] as usize..first + run[slab + 1] as usize];
-                for &slot in slots {
-                    let (i, c) = (nodes[slot as usize] as usize, &corners[slot as usize]);
-                    let m = mass[i];
-                    let share = [m, v[i].x * m, v[i].y * m, v[i].z * m];
-                    for (w, corner) in weights(&c.frac).into_iter().zip(corner_offsets(dims)) {
-                        let point = &mut chunk[c.base as usize + corner - offset];
-                        for (sum, x) in point.iter_mut().zip(share) {
-                            *sum += x * w;
+        let lattice = self.lattice;
+        let len = lattice.dims.iter().product::<usize>();
+        let copies = (self.nodes / COPY_NODES)
+            .min(self.nodes / len.max(1))
+            .clamp(1, MAX_COPIES);
+        // Only what a resize adds is written by it; the copies are zeroed in parallel below.
+        self.copies.resize(copies * len, [0.0; 4]);
+        self.points.resize(len, [0.0; 4]);
+        let (p, v, mass) = (state.positions(), state.velocities(), state.mass());
+        let (parts, skeletons) = (&self.parts, &self.skeletons);
+        let inv = 1.0 / lattice.spacing;
+        let offsets = corner_offsets(lattice.dims);
+        self.copies
+            .par_chunks_mut(len)
+            .enumerate()
+            .for_each(|(c, grid)| {
+                grid.fill([0.0; 4]);
+                let own = &parts[c * parts.len() / copies..(c + 1) * parts.len() / copies];
+                for part in own {
+                    for &s in &skeletons[part.start..part.end] {
+                        let r = state.nodes(SkeletonId(s));
+                        for i in r.start + 1..r.end {
+                            let (base, frac) = lattice.cell_of(&p[i], inv);
+                            let m = mass[i];
+                            let share = [m, v[i].x * m, v[i].y * m, v[i].z * m];
+                            for (w, corner) in weights(&frac).into_iter().zip(offsets) {
+                                let point = &mut grid[base + corner];
+                                for (sum, x) in point.iter_mut().zip(share) {
+                                    *sum += x * w;
+                                }
+                            }
                         }
                     }
                 }
-            }
-        };
-        if slab_len > 0 {
-            self.points
-                .par_chunks_mut(2 * slab_len)
-                .enumerate()
-                .for_each(|(c, chunk)| splat_slab(2 * c, chunk));
-            let odd = self.points.len().min(slab_len);
-            self.points[odd..]
-                .par_chunks_mut(2 * slab_len)
-                .enumerate()
-                .for_each(|(c, chunk)| splat_slab(2 * c + 1, chunk));
-        }
-        let inv_volume = 1.0 / self.lattice.spacing.powi(3);
-        // In lattice order, serially: the same sum on any thread count.
-        let (mut m2, mut m1) = (0.0f64, 0.0f64);
-        for s in &self.points {
-            let m = f64::from(s[0]);
-            m2 += m * m;
-            m1 += m;
-        }
+            });
+        let inv_volume = 1.0 / lattice.spacing.powi(3);
+        // The mean density's sums per fixed range, then in range order: the same on any
+        // thread count.
+        let mut sums = [(0.0f64, 0.0f64); POINT_RANGES];
+        let range = len.div_ceil(POINT_RANGES).max(1);
+        let copies_of = &self.copies;
+        self.points
+            .par_chunks_mut(range)
+            .zip(sums.par_iter_mut())
+            .enumerate()
+            .for_each(|(k, (points, (m1, m2)))| {
+                for (j, out) in (k * range..).zip(points.iter_mut()) {
+                    let mut s = copies_of[j];
+                    for c in 1..copies {
+                        let t = copies_of[c * len + j];
+                        for (a, b) in s.iter_mut().zip(t) {
+                            *a += b;
+                        }
+                    }
+                    let m = s[0];
+                    *m1 += f64::from(m);
+                    *m2 += f64::from(m) * f64::from(m);
+                    *out = if m > 0.0 {
+                        [s[1] / m, s[2] / m, s[3] / m, m * inv_volume]
+                    } else {
+                        [0.0; 4]
+                    };
+                }
+            });
+        let (m1, m2) = sums
+            .iter()
+            .fold((0.0f64, 0.0f64), |(a, b), (m1, m2)| (a + m1, b + m2));
         self.mean_density = if m1 > 0.0 {
             (m2 * f64::from(inv_volume) / m1) as Real
         } else {
             0.0
         };
-        self.points.par_iter_mut().for_each(|s| {
-            let m = s[0];
-            *s = if m > 0.0 {
-                [s[1] / m, s[2] / m, s[3] / m, m * inv_volume]
-            } else {
-                [0.0; 4]
-            };
-        });
     }
 
     /// The lattice's mass-weighted mean density at the last splat (kg/m³): the density a unit
@@ -385,66 +391,107 @@ impl HairVolume {
     pub fn mean_density(&self) -> Real {
         self.mean_density
     }
+}
 
-    /// Each node's velocity blended toward the lattice's at its place, plus the repulsion, into
-    /// `targets`, or as the force that makes the change over `dt` into `forces`.
-    fn sample(&mut self, state: &StrandState, settings: &VolumeSettings, dt: Real, output: Output) {
-        let dims = self.lattice.dims;
-        let inv_spacing = 1.0 / self.lattice.spacing;
-        let v = state.velocities();
-        let points = &self.points;
-        let target = settings.density_limit * self.mean_density;
-        let repulsion = settings.repulsion && target > 0.0;
-        let speed = settings.repulsion_rate * self.lattice.spacing;
-        let blend = |((&i, c), &alpha): ((&u32, &Corner), &Real)| {
-            let ws = weights(&c.frac);
-            let corner = corner_offsets(dims).map(|o| points[c.base as usize + o]);
+/// Runs `sample` on runs of `parts` in parallel, each with the run of `forces` its nodes lie
+/// in (`forces[0]` is node `base`; `first` gives a part's first node), and adds up what they
+/// return.
+fn split_parts<F, S>(
+    parts: &[Part],
+    forces: &mut [Vector],
+    base: usize,
+    first: &F,
+    sample: &S,
+) -> usize
+where
+    F: Fn(&Part) -> usize + Sync,
+    S: Fn(&[Part], &mut [Vector], usize) -> usize + Sync,
+{
+    if parts.len() <= 1 {
+        return sample(parts, forces, base);
+    }
+    let mid = parts.len() / 2;
+    let at = first(&parts[mid]);
+    let (left, right) = forces.split_at_mut(at - base);
+    let (a, b) = rayon::join(
+        || split_parts(&parts[..mid], left, base, first, sample),
+        || split_parts(&parts[mid..], right, at, first, sample),
+    );
+    a + b
+}
+
+/// The sampling of one step: each node's velocity blended toward the lattice's at its place,
+/// plus the repulsion.
+struct Sampler<'a> {
+    lattice: Lattice,
+    points: &'a [[Real; 4]],
+    inv_spacing: Real,
+    /// The repulsion's density target (kg/m³), whether it acts, and its speed (m/s).
+    target: Real,
+    repulsion: bool,
+    speed: Real,
+    /// The friction rates at the root and the tip (1/s), and the step (s).
+    root_rate: Real,
+    tip_rate: Real,
+    dt: Real,
+}
+
+impl<'a> Sampler<'a> {
+    fn new(volume: &'a HairVolume, settings: &VolumeSettings, dt: Real) -> Self {
+        let lattice = volume.lattice;
+        let target = settings.density_limit * volume.mean_density;
+        Self {
+            lattice,
+            points: &volume.points,
+            inv_spacing: 1.0 / lattice.spacing,
+            target,
+            repulsion: settings.repulsion && target > 0.0,
+            speed: settings.repulsion_rate * lattice.spacing,
+            root_rate: settings.friction_root.max(0.0),
+            tip_rate: settings.friction_tip.max(0.0),
+            dt,
+        }
+    }
+
+    /// Calls `out(node, velocity, pushed)` for every node of skeleton `s` but its root, root
+    /// to tip.
+    #[inline]
+    fn skeleton(&self, state: &StrandState, s: u32, mut out: impl FnMut(usize, Vector, bool)) {
+        let (p, v) = (state.positions(), state.velocities());
+        let r = state.nodes(SkeletonId(s));
+        let last = (r.len().max(2) - 1) as Real;
+        // The rate is linear in the node's index, so `exp(-rate dt)` is geometric in it: two
+        // exponentials a skeleton instead of one a node.
+        let step = (-(self.tip_rate - self.root_rate) * self.dt / last).exp();
+        let mut decay = (-self.root_rate * self.dt).exp();
+        let offsets = corner_offsets(self.lattice.dims);
+        for i in r.start + 1..r.end {
+            decay *= step;
+            let alpha = (1.0 - decay).clamp(0.0, 1.0);
+            let (base, frac) = self.lattice.cell_of(&p[i], self.inv_spacing);
+            let ws = weights(&frac);
+            let corner = offsets.map(|o| self.points[base + o]);
             let mut grid = Vector::zeros();
-            for (w, p) in ws.iter().zip(&corner) {
-                grid += Vector::new(p[0], p[1], p[2]) * *w;
+            for (w, c) in ws.iter().zip(&corner) {
+                grid += Vector::new(c[0], c[1], c[2]) * *w;
             }
-            let own = v[i as usize];
-            let mut out = own + (grid - own) * alpha;
+            let own = v[i];
+            let mut blended = own + (grid - own) * alpha;
             let mut pushed = false;
-            if repulsion {
-                let d = corner.map(|p| p[3]);
-                let (rho, gradient) = density_and_gradient(&d, &ws, &c.frac, inv_spacing);
+            if self.repulsion {
+                let d = corner.map(|c| c[3]);
+                let (rho, gradient) = density_and_gradient(&d, &ws, &frac, self.inv_spacing);
                 let norm = gradient.norm();
-                if rho > target && norm > 0.0 {
+                if rho > self.target && norm > 0.0 {
                     // Decompress only: out of the over-dense place, never into a thin one.
-                    let excess = ((rho - target) / target).min(1.0);
-                    out -= gradient * (speed * excess / norm);
+                    let excess = ((rho - self.target) / self.target).min(1.0);
+                    blended -= gradient * (self.speed * excess / norm);
                     pushed = true;
                 }
             }
-            ((i, out), pushed)
-        };
-        let nodes = self.nodes.par_iter().zip(&self.corners).zip(&self.alpha);
-        match output {
-            Output::Targets => nodes
-                .map(blend)
-                .unzip_into_vecs(&mut self.targets, &mut self.pushed),
-            Output::Forces => {
-                let (mass, wetness) = (state.mass(), state.wetness());
-                nodes
-                    .map(blend)
-                    .map(|((i, target), pushed)| {
-                        let n = i as usize;
-                        let force = (target - v[n]) * ((mass[n] + wetness[n]) / dt);
-                        ((i, force), pushed)
-                    })
-                    .unzip_into_vecs(&mut self.forces, &mut self.pushed)
-            }
+            out(i, blended, pushed);
         }
     }
-}
-
-/// What the blend writes: the velocities ([`HairVolume::blend`]) or the forces
-/// ([`HairVolume::respond`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Output {
-    Targets,
-    Forces,
 }
 
 /// The lattice over `lo..hi` with spacing `spacing` (widened until it has at most `max_points`
@@ -473,22 +520,17 @@ fn lattice_over(lo: Point, hi: Point, spacing: Real, max_points: u32) -> Lattice
     }
 }
 
-/// Planes per slab: at least two, so that a slab's nodes reach only the next slab.
-fn slab_thickness(planes: usize) -> usize {
-    planes.div_ceil(SLABS).max(2)
-}
-
-/// One chunk's share of the gathering: bounds, summed segment length (m) and its first
+/// One part's share of the gathering: bounds, summed segment length (m) and its first
 /// non-finite node.
 #[derive(Clone, Copy, Debug)]
-struct ChunkSums {
+struct PartSums {
     lo: Point,
     hi: Point,
     length: f64,
     non_finite: Option<usize>,
 }
 
-impl Default for ChunkSums {
+impl Default for PartSums {
     fn default() -> Self {
         Self {
             lo: Point::from([Real::MAX; 3]),

@@ -912,6 +912,23 @@ impl StrandState {
         Ok(())
     }
 
+    /// Adds a force (N, head frame) to any node for the next [`StrandState::step`] only, as
+    /// [`StrandState::add_forces_for_next_step`] does for a list of nodes: `fill` reads the
+    /// state and adds to the per-node forces it is given (one per node, zero where nothing was
+    /// added). For a response with a force on most nodes, such as the hair-hair volume's
+    /// friction: no list to build, check and scatter. The step checks the forces as it uses them
+    /// (a non-finite one makes its skeleton's step fail, reported).
+    pub fn add_node_forces_for_next_step<R>(
+        &mut self,
+        fill: impl FnOnce(&StrandState, &mut [Vector]) -> R,
+    ) -> R {
+        let mut forces = std::mem::take(&mut self.next_step_node_forces);
+        forces.resize(self.node_count(), Vector::zeros());
+        let result = fill(self, &mut forces);
+        self.next_step_node_forces = forces;
+        result
+    }
+
     /// Sets node velocities (head frame) and maps them back to angular velocities, root to tip,
     /// as [`StrandState::apply_velocity_constraints`] does.
     pub fn apply_velocity_targets(

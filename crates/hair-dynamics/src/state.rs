@@ -154,6 +154,9 @@ pub struct StrandState {
     pub(crate) external_force: Vec<Vector>,
     /// Forces for the next step only (node, force), added by `add_forces_for_next_step`.
     pub(crate) next_step_forces: Vec<(u32, Vector)>,
+    /// Forces for the next step only, one per node, added by `add_node_forces_for_next_step`;
+    /// empty when none was added.
+    pub(crate) next_step_node_forces: Vec<Vector>,
     pub(crate) positions: Vec<Point>,
     pub(crate) velocities: Vec<Vector>,
     pub(crate) steps: u64,
@@ -218,6 +221,7 @@ impl Clone for StrandState {
             rest_points,
             external_force,
             next_step_forces,
+            next_step_node_forces,
             positions,
             velocities,
             steps,
@@ -261,6 +265,7 @@ impl Clone for StrandState {
         rest_points.clone_from(&from.rest_points);
         external_force.clone_from(&from.external_force);
         next_step_forces.clone_from(&from.next_step_forces);
+        next_step_node_forces.clone_from(&from.next_step_node_forces);
         positions.clone_from(&from.positions);
         velocities.clone_from(&from.velocities);
         *steps = from.steps;

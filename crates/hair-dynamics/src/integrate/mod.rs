@@ -22,6 +22,7 @@ use crate::run::Run;
 use crate::strand::{self, RootDyn, Scratch, StrandParams};
 use crate::{DynamicsError, Environment, Point, Real, StrandState, Vector};
 use nalgebra::{RealField, Vector3};
+use rayon::prelude::*;
 use std::cell::RefCell;
 
 pub(crate) use bdf2::Previous;
@@ -712,7 +713,21 @@ impl StrandState {
         env.validate()?;
         let mut force = std::mem::take(&mut self.force_scratch);
         force.clear();
-        force.extend_from_slice(&self.external_force);
+        // The per-node forces for this step added in the same pass (nodes appended since they
+        // were added have none).
+        let added = self
+            .next_step_node_forces
+            .len()
+            .min(self.external_force.len());
+        let (with, without) = self.external_force.split_at(added);
+        force.par_extend(
+            with.par_iter()
+                .zip(&self.next_step_node_forces)
+                .map(|(e, g)| e + g),
+        );
+        force.extend_from_slice(without);
+        // Empty until a response adds some again: a state copied now carries none.
+        self.next_step_node_forces.clear();
         for &(node, f) in &self.next_step_forces {
             force[node as usize] += f;
         }
