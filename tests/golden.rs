@@ -9,6 +9,10 @@
 //! air) is advanced by the coupled step in SIMD lanes, which rounds differently from the scalar
 //! structured step: its pin is the lanes'.
 //!
+//! Re-pinned on 2026-12-07: the hash is taken over fixed parts of the nodes (c3303bd; the
+//! states did not move), and the volume's splat adds its shares in another fixed order
+//! (b9a8243; `bristles` and `salon` use `Pairs` and did not move).
+//!
 //! A refactor keeps these bit for bit. A change that moves results on purpose updates them in a
 //! commit of its own that says which change moved them and by how much.
 
@@ -53,31 +57,31 @@ fn check(cases: &[(&str, Option<LodPolicy>, u32, &str)]) {
 #[test]
 fn builtin_scenes_at_their_own_policy() {
     check(&[
-        ("wind", None, 60, "01afa3043a2d5957"),
-        ("shake", None, 60, "60f8cd8c9cfd06ca"),
-        ("torus", None, 60, "90451454016e2209"),
-        ("zoom", None, 60, "6be70361465848f4"),
-        ("bristles", None, 60, "e5070ae2a3cd7074"),
-        ("sintel", None, 60, "98a64d5a881c04d1"),
+        ("wind", None, 60, "f0695bf5af430ca4"),
+        ("shake", None, 60, "9b136712f310986f"),
+        ("torus", None, 60, "8ecce487f492a98c"),
+        ("zoom", None, 60, "0808a4794f052117"),
+        ("bristles", None, 60, "f8c8f5ebbeb03f7b"),
+        ("sintel", None, 60, "0eeb6caa63d89442"),
     ]);
 }
 
 #[test]
 fn salon_session_with_every_tool() {
     // 600 frames: water, two cuts (fallen pieces), spray bonds, mousse, dryer and grab.
-    check(&[("salon", None, 600, "cc45a8a186f5b5e6")]);
+    check(&[("salon", None, 600, "8fded984d3ce9882")]);
 }
 
 #[test]
 fn wardlin_fine_and_adaptive() {
     check(&[
-        ("wardlin", Some(LodPolicy::Fine), 60, "95dcceb2889bdd7b"),
-        ("wardlin", Some(LodPolicy::Adaptive), 60, "382dbda10ca9090f"),
+        ("wardlin", Some(LodPolicy::Fine), 60, "5e50042949a615e1"),
+        ("wardlin", Some(LodPolicy::Adaptive), 60, "0fb2f53704d1d447"),
     ]);
 }
 
 #[test]
 fn strands10k_five_frames() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/strands10k.ron");
-    check(&[(path, Some(LodPolicy::Fine), 5, "d43bc68fa7df5347")]);
+    check(&[(path, Some(LodPolicy::Fine), 5, "d7f8b091b74b68b3")]);
 }
