@@ -428,6 +428,7 @@ struct Sampler<'a> {
     inv_spacing: Real,
     /// The repulsion's density target (kg/m³), whether it acts, and its speed (m/s).
     target: Real,
+    near_target: Real,
     repulsion: bool,
     speed: Real,
     /// The friction rates at the root and the tip (1/s), and the step (s).
@@ -445,6 +446,7 @@ impl<'a> Sampler<'a> {
             points: &volume.points,
             inv_spacing: 1.0 / lattice.spacing,
             target,
+            near_target: target * (1.0 - 1e-4),
             repulsion: settings.repulsion && target > 0.0,
             speed: settings.repulsion_rate * lattice.spacing,
             root_rate: settings.friction_root.max(0.0),
@@ -478,7 +480,10 @@ impl<'a> Sampler<'a> {
             let own = v[i];
             let mut blended = own + (grid - own) * alpha;
             let mut pushed = false;
-            if self.repulsion {
+            // The density at the node is a weighted mean of its corners' (weights summing to
+            // one within rounding, which the margin covers): where none comes near the target,
+            // it does not exceed it, and the gradient is not needed.
+            if self.repulsion && corner.iter().any(|c| c[3] > self.near_target) {
                 let d = corner.map(|c| c[3]);
                 let (rho, gradient) = density_and_gradient(&d, &ws, &frac, self.inv_spacing);
                 let norm = gradient.norm();

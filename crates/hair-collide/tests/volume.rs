@@ -255,7 +255,11 @@ fn volume_is_bit_identical_on_1_2_and_5_threads() {
         })
     };
     let one = bits(1);
-    assert!((1000..4000).contains(&one.0.len()), "{} points", one.0.len());
+    assert!(
+        (1000..4000).contains(&one.0.len()),
+        "{} points",
+        one.0.len()
+    );
     assert!(one == bits(2), "2 threads differ from 1");
     assert!(one == bits(5), "5 threads differ from 1");
 }
