@@ -83,6 +83,9 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub dense_fallbacks: usize,
     /// BDF2 steps whose error estimate failed and that were redone as the coupled step.
     pub bdf2_fallbacks: usize,
+    /// Rosenbrock steps whose guard found no split within its tolerance and that were redone as
+    /// the coupled step.
+    pub rosenbrock_fallbacks: usize,
     // Integrator stages.
     pub q0: Vec<T>,
     pub w0: Vec<T>,
