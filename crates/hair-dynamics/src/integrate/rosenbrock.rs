@@ -11,7 +11,7 @@
 //! stage's torques.
 
 use super::StepSettings;
-use super::implicit_coupled::solve_system;
+use super::implicit_coupled::{solve_system, solve_system_again};
 use crate::strand::{RootDyn, Scratch, StrandParams};
 use nalgebra::{RealField, Vector3};
 
@@ -266,7 +266,13 @@ pub(super) fn step<T: RealField + Copy>(
             rq[c] = r_q;
             sc.tau[c] = ftau[c] + sc.inertia[c] * r_w;
         }
-        if !solve_system(root, p, &rq[..m2], hg, settings, None, sc) {
+        // Every stage solves with the same matrix: the first factors it, the others reuse that.
+        let solved_stage = if i == 0 {
+            solve_system(root, p, &rq[..m2], hg, settings, None, sc)
+        } else {
+            solve_system_again(root, p, &rq[..m2], hg, settings, sc)
+        };
+        if !solved_stage {
             solved = false;
             break;
         }
