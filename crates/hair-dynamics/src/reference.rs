@@ -212,6 +212,13 @@ impl ReferenceScratch {
     pub fn bdf2_fallbacks(&self) -> usize {
         self.0.bdf2_fallbacks
     }
+
+    /// [`crate::Integrator::ImplicitRos3`] steps taken with this scratch that no split into the
+    /// guard's pieces brought within its tolerance, so that they were redone as the coupled step
+    /// (backward Euler) in those pieces.
+    pub fn rosenbrock_fallbacks(&self) -> usize {
+        self.0.rosenbrock_fallbacks
+    }
 }
 
 /// Tip of a cantilever under its own weight (inextensible elastica), clamped horizontally.

@@ -8,7 +8,7 @@ use crate::TorqueModel;
 use crate::bend::Bend;
 use crate::environment::LocalEnv;
 use nalgebra::{
-    Matrix2x3, Matrix3, Matrix3x2, Matrix6, RealField, SMatrix, Vector2, Vector3, Vector6,
+    Matrix2, Matrix2x3, Matrix3, Matrix3x2, Matrix6, RealField, SMatrix, Vector2, Vector3, Vector6,
 };
 
 /// Read-only per-node parameters of one strand (slices of length `n`).
@@ -70,6 +70,13 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub sweep_prefix: Vec<Vector3<T>>,
     pub sweep_diag: Vec<Vector2<T>>,
     pub sweep_rhs: Vec<Vector2<T>>,
+    /// The structured solve's per-joint factors that depend on the matrix only (the 2 x 2
+    /// block's inverse, `G = M A + V`), kept so that another right-hand side with the same
+    /// matrix skips the elimination's matrix work (the Rosenbrock stages).
+    pub sweep_inverse: Vec<Matrix2<T>>,
+    pub sweep_g: Vec<Matrix3x2<T>>,
+    /// Whether `sweep_*` hold the factors of the last system `solve_system` was given.
+    pub sweep_factored: bool,
     // The turning head frame's terms (`integrate::rotating_frame`), per joint: the sum `S` over
     // the nodes it carries, the suffix and row generators, the gain, the prefix sum of the twists;
     // and `Z w` per coordinate. Sized on first use in a turning frame.
@@ -83,6 +90,9 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     pub dense_fallbacks: usize,
     /// BDF2 steps whose error estimate failed and that were redone as the coupled step.
     pub bdf2_fallbacks: usize,
+    /// Rosenbrock steps whose guard found no split within its tolerance and that were redone as
+    /// the coupled step.
+    pub rosenbrock_fallbacks: usize,
     // Integrator stages.
     pub q0: Vec<T>,
     pub w0: Vec<T>,
@@ -143,6 +153,8 @@ impl<T: RealField + Copy> Scratch<T> {
             grow(&mut self.sweep_prefix, joints, z3);
             grow(&mut self.sweep_diag, joints, Vector2::zeros());
             grow(&mut self.sweep_rhs, joints, Vector2::zeros());
+            grow(&mut self.sweep_inverse, joints, Matrix2::zeros());
+            grow(&mut self.sweep_g, joints, Matrix3x2::zeros());
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The second-order steps on the coupled system (Rosenbrock, BDF2): their order measured on a
 //! 20-point strand against an f64 RK4 reference, and their stability over the grid of
-//! `hair stability` (every cell stable, no energy made up); BDF2's start and restarts.
+//! `hair stability` (every cell stable, no energy made up); ROS3's accuracy at 1/100 s and its
+//! guard; BDF2's start and restarts.
 
 mod support;
 
@@ -94,6 +95,85 @@ fn rosenbrock_steps_converge_at_their_order_on_a_strand() {
     assert!(bdf2 * 5.0 < coupled, "coupled {coupled:e}, bdf2 {bdf2:e}");
 }
 
+/// The tip every 1/25 s over 2 s of f32 steps of `dt` (as `hair accuracy` samples it).
+fn tip_samples(k: Real, integrator: Integrator, dt: Real) -> Vec<nalgebra::Vector3<f64>> {
+    let (mut state, id) = standard_strand(k);
+    let set = settings(dt, integrator, TorqueModel::Chain);
+    let per_sample = (0.04 / dt).round() as usize;
+    let mut tips = Vec::new();
+    for s in 1..=(2.0 / dt).round() as usize {
+        state.step(&Environment::default(), &set).unwrap();
+        if s % per_sample == 0 {
+            tips.push(
+                state.positions()[state_tip(&state, id)]
+                    .coords
+                    .cast::<f64>(),
+            );
+        }
+    }
+    tips
+}
+
+/// ROS3 meets issue 39's accuracy goal at a frame-rate step: the standard strand (k = 1e-3)
+/// over 2 s at 1/100 s, RMS tip error against f64 RK4 at 1/12800 s within 2e-3 m (the goal;
+/// the bar is 5e-3 m, and BDF2 has 3.6e-2). The guard's splits are part of it: 1e-3 rad splits
+/// a sixth of these steps in two (the old guard's 0.01 rad split none: 2.2e-3 m).
+#[test]
+fn ros3_is_within_the_accuracy_goal_at_a_hundredth_of_a_second() {
+    let (state, id) = standard_strand(1e-3);
+    let mut strand = ReferenceStrand::from_state(&state, id);
+    let mut scratch = ReferenceScratch::default();
+    let fine = settings(1.0 / 12800.0, Integrator::Rk4, TorqueModel::Chain);
+    let mut reference = Vec::new();
+    for s in 1..=25600 {
+        assert!(strand.step(&Environment::default(), &fine, &mut scratch));
+        if s % 512 == 0 {
+            reference.push(*strand.positions().last().unwrap());
+        }
+    }
+    let rms = |integrator: Integrator| {
+        let tips = tip_samples(1e-3, integrator, 0.01);
+        assert_eq!(tips.len(), reference.len());
+        let sum: f64 = tips
+            .iter()
+            .zip(&reference)
+            .map(|(a, b)| (a - b).norm_squared())
+            .sum();
+        (sum / tips.len() as f64).sqrt()
+    };
+    let ros3 = rms(Integrator::ImplicitRos3);
+    let coupled = rms(Integrator::ImplicitCoupled);
+    println!("RMS tip error over 2 s at 1/100 s: ros3 {ros3:.3e} m, coupled {coupled:.3e} m");
+    assert!(ros3 <= 2e-3, "ros3 {ros3:e}");
+    assert!(ros3 * 20.0 < coupled, "ros3 {ros3:e}, coupled {coupled:e}");
+}
+
+/// ROS3's fallback to backward Euler is for steps it cannot resolve: none at the order test's
+/// steps, nor at 1/100 s on the standard strand; some at 1/10 s, where the run stays finite and
+/// makes up no energy.
+#[test]
+fn ros3_falls_back_to_backward_euler_only_on_unresolved_steps() {
+    let fallbacks = |k: Real, dt: f64, t_end: f64| {
+        let (state, id) = standard_strand(k);
+        let mut strand = ReferenceStrand::from_state(&state, id);
+        let mut scratch = ReferenceScratch::default();
+        let set = settings(dt as Real, Integrator::ImplicitRos3, TorqueModel::Chain);
+        for _ in 0..(t_end / dt).round() as usize {
+            assert!(strand.step(&Environment::default(), &set, &mut scratch));
+        }
+        scratch.rosenbrock_fallbacks()
+    };
+    let fine = fallbacks(1e-3, 1.0 / 1024.0, 0.5);
+    let frame_rate = fallbacks(1e-3, 1.0 / 100.0, 2.0);
+    let coarse = fallbacks(1e-4, 1.0 / 10.0, 2.0);
+    println!("ros3 fallbacks: 1/1024 s {fine}, 1/100 s {frame_rate}, 1/10 s (k = 1e-4) {coarse}");
+    assert_eq!(fine, 0);
+    assert_eq!(frame_rate, 0);
+    assert!(coarse > 0, "{coarse}");
+    let (stable, gain) = stability_cell(Integrator::ImplicitRos3, 1e-4, 10);
+    assert!(stable && gain <= 0.05, "stable {stable}, gain {gain}");
+}
+
 /// One cell of the stability grid: (stable, energy gain over weight x length).
 fn stability_cell(integrator: Integrator, k: f64, steps_per_second: u32) -> (bool, f64) {
     let (mut state, _) = standard_strand(k as Real);
@@ -169,16 +249,12 @@ fn rosenbrock_steps_are_stable_on_the_stability_grid_and_make_up_no_energy() {
                     .all(|&(k, sps)| sps == 400 && (k - 1e-4).abs() < 1e-9),
                 "{integrator:?}: unstable cells {unstable:?}"
             );
-        } else if integrator != Integrator::ImplicitRos3 {
+        } else {
+            // ROS3 too since its guard bounds the rates' error and falls back to backward Euler
+            // where four pieces do not resolve the motion; with the old guard it grew in five
+            // cells (docs/dynamics.md).
             assert!(
                 unstable.is_empty(),
-                "{integrator:?}: unstable cells {unstable:?}"
-            );
-        } else {
-            // ROS3 stays finite and makes up no energy, but in a few cells at the largest steps
-            // the tip's peak speed grows from the first second to the second (docs/dynamics.md).
-            assert!(
-                unstable.len() <= 5,
                 "{integrator:?}: unstable cells {unstable:?}"
             );
         }

@@ -88,6 +88,7 @@ pub(super) fn solve_system<T: RealField + Copy>(
     sc: &mut Scratch<T>,
 ) -> bool {
     let model = settings.torque;
+    sc.sweep_factored = false;
     if let Some(omega) = frame_spin {
         rotating_frame::prepare(p, w.len() / 2, h, &omega, model, sc);
     }
@@ -105,6 +106,30 @@ pub(super) fn solve_system<T: RealField + Copy>(
             }
         }
         dense => dense_solve(root, p, w, h, model, dense, spinning, sc),
+    }
+}
+
+/// [`solve_system`] for the system it was last given (same strand, kinematics, Jacobian sums,
+/// step and no turning frame), with the new right-hand side's `w` and `sc.tau`: the structured
+/// solve then reuses that system's per-joint factors (the 2 x 2 blocks' inverses and gains) and
+/// redoes only the right-hand side's passes and the residual check. The answer is bit for bit
+/// that of [`solve_system`]; where the last system had no structured factors (another solver, a
+/// singular block) it is [`solve_system`].
+pub(super) fn solve_system_again<T: RealField + Copy>(
+    root: &RootDyn<T>,
+    p: &StrandParams<'_, T>,
+    w: &[T],
+    h: T,
+    settings: &StepSettings,
+    sc: &mut Scratch<T>,
+) -> bool {
+    if settings.solver != LinearSolver::Structured || !sc.sweep_factored {
+        return solve_system(root, p, w, h, settings, None, sc);
+    }
+    let model = settings.torque;
+    structured_solve_again(root, p, w, h, model, sc) || {
+        sc.dense_fallbacks += 1;
+        dense_solve(root, p, w, h, model, LinearSolver::Hand, false, sc)
     }
 }
 
@@ -276,8 +301,62 @@ fn structured_solve<T: RealField + Copy>(
         sc.sweep_offset[j] = offset;
         sc.sweep_diag[j] = d;
         sc.sweep_rhs[j] = b;
+        sc.sweep_inverse[j] = inverse;
+        sc.sweep_g[j] = g;
     }
+    sc.sweep_factored = true;
+    solve_and_check(joints, h2, chain, sc)
+}
 
+/// [`structured_solve`] for a new right-hand side of the system whose factors `sc.sweep_*`
+/// hold: the same arithmetic on the right-hand side, in the same order, without the matrix's.
+fn structured_solve_again<T: RealField + Copy>(
+    root: &RootDyn<T>,
+    p: &StrandParams<'_, T>,
+    w: &[T],
+    h: T,
+    model: TorqueModel,
+    sc: &mut Scratch<T>,
+) -> bool {
+    let joints = w.len() / 2;
+    let h2 = h * h;
+    let chain = model == TorqueModel::Chain;
+    let velocity = |j: usize| Vector2::new(w[2 * j], w[2 * j + 1]);
+    let mut prefix = Vector3::zeros();
+    for j in 0..joints {
+        sc.sweep_prefix[j] = prefix;
+        prefix += joint_axes(sc, j) * velocity(j);
+    }
+    let mut gain_r = Vector3::zeros();
+    let mut suffix_w = Vector3::zeros();
+    for j in (0..joints).rev() {
+        let a = joint_axes(sc, j);
+        if !chain {
+            gain_r = Vector3::zeros();
+            suffix_w = Vector3::zeros();
+        }
+        suffix_w += sc.sweep_v[j] * velocity(j);
+        let jw = sc.sweep_w[j].tr_mul(&sc.sweep_prefix[j]) + a.tr_mul(&suffix_w);
+        let mut b = Vector2::zeros();
+        for t in 0..2 {
+            b[t] = diagonal_and_rhs(root, p, sc, w, h, 2 * j + t, jw[t]).1;
+        }
+        let offset = sc.sweep_inverse[j] * (b + a.tr_mul(&gain_r) * h2);
+        gain_r += sc.sweep_g[j] * offset;
+        sc.sweep_offset[j] = offset;
+        sc.sweep_rhs[j] = b;
+    }
+    solve_and_check(joints, h2, chain, sc)
+}
+
+/// The structured solve's last two passes, from the gains and offsets in `sc.sweep_*`: the
+/// unknowns root to tip into `sc.rhs`, then the residual check tip to root.
+fn solve_and_check<T: RealField + Copy>(
+    joints: usize,
+    h2: T,
+    chain: bool,
+    sc: &mut Scratch<T>,
+) -> bool {
     // Root to tip: the unknowns; the prefix sums of A x are kept for the residual.
     let mut prefix = Vector3::zeros();
     for j in 0..joints {
@@ -671,6 +750,47 @@ mod tests {
                         prop_assert!((s - f).abs() <= 1e-9 * scale, "{s} vs {f} (n {n})");
                     }
                 }
+            }
+        }
+
+        /// A second right-hand side with the same matrix (as the Rosenbrock stages solve), by
+        /// `solve_system_again` after `solve_system`, gives the bits a fresh `solve_system` gives,
+        /// in f32, for both load models, clamped and free roots; and it reuses the factors
+        /// (checked by spoiling the kept inverses afterwards: the answer changes or fails the
+        /// residual check, which a full solve would not).
+        #[test]
+        fn solving_again_with_the_kept_factors_gives_the_fresh_solves_bits(
+            n in 2usize..33, seed in any::<u64>(), h in 1e-3f64..0.05,
+            chain in any::<bool>(), free in any::<bool>()) {
+            let c = case::<f32>(n, seed, 0.8, 0.0, free);
+            let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
+            let settings = StepSettings { torque: model, ..StepSettings::default() };
+            let p = c.params();
+            let h = h as f32;
+            let m2 = c.w.len();
+            let second_w: Vec<f32> = c.w.iter().map(|x| 0.5 * x - 0.1).collect();
+            let second_tau = |sc: &mut Scratch<f32>| {
+                for (l, t) in sc.tau[..m2].iter_mut().enumerate() {
+                    *t = 1e-5 * (l as f32 - 3.0);
+                }
+            };
+            let mut fresh = c.evaluated(model);
+            second_tau(&mut fresh);
+            let fresh_ok = solve_system(&c.root, &p, &second_w, h, &settings, None, &mut fresh);
+            let mut again = c.evaluated(model);
+            prop_assert!(solve_system(&c.root, &p, &c.w, h, &settings, None, &mut again));
+            second_tau(&mut again);
+            let again_ok = solve_system_again(&c.root, &p, &second_w, h, &settings, &mut again);
+            prop_assert_eq!(fresh_ok, again_ok);
+            prop_assert_eq!(fresh.dense_fallbacks, again.dense_fallbacks);
+            let bits = |sc: &Scratch<f32>| sc.rhs[..m2].iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            prop_assert_eq!(bits(&fresh), bits(&again));
+            if again.dense_fallbacks == 0 {
+                again.sweep_inverse.iter_mut().for_each(|m| *m *= 2.0);
+                second_tau(&mut again);
+                solve_system_again(&c.root, &p, &second_w, h, &settings, &mut again);
+                // The spoiled factors give another answer, or one the residual check declines.
+                prop_assert!(bits(&fresh) != bits(&again) || again.dense_fallbacks == 1);
             }
         }
 

@@ -8,7 +8,7 @@
 //! | [`Integrator::ImplicitAngular`] | Ward & Lin Appendix A per angle, damping folded in | loads treated explicitly: gravity-dominated soft strands at large steps |
 //! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one `O(n)` structured solve per strand | none found in the stability sweep |
 //! | [`Integrator::ImplicitRos2`] | two-stage L-stable Rosenbrock (second order) on the same system, two solves of the coupled step's kind | see `hair stability` |
-//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves | see `hair stability` |
+//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves; a step its error guard does not trust is split in up to four pieces, then taken as the coupled step in four pieces | none found in the stability sweep |
 //! | [`Integrator::ImplicitBdf2`] | linearly implicit BDF2 (second order, L-stable) on the coupled system, one solve of the coupled step's kind, the previous step kept in the state | none found in the stability sweep |
 
 mod bdf2;
@@ -48,7 +48,9 @@ pub enum Integrator {
     /// two solves of the coupled step's system per step (`docs/dynamics.md`).
     ImplicitRos2,
     /// Sandu et al.'s three-stage Rosenbrock method ROS3 on the coupled system: third order,
-    /// L-stable, two torque evaluations and three solves per step (`docs/dynamics.md`).
+    /// L-stable, two torque evaluations and three solves per step. A step whose embedded error
+    /// estimate (angles and rates) exceeds 1e-3 rad is split in two or four pieces, and one that
+    /// four pieces do not resolve is taken as the coupled step in four pieces (`docs/dynamics.md`).
     ImplicitRos3,
     /// The two-step backward differentiation formula BDF2 on the coupled system, linearised once
     /// per step: second order, L-stable, one solve of the coupled step's system per step. It
@@ -190,6 +192,9 @@ pub(crate) fn step_strand<T: RealField + Copy>(
     sc.len0[..n].copy_from_slice(length);
     let root0 = *root;
     let model = settings.torque;
+    // A turning head's Coriolis and centrifugal forces are implicit in the coupled step: held
+    // explicit, the gyroscopic term gains energy every step (see `rotating_frame`).
+    let spin = (env.has_frame_motion && env.omega.norm_squared() > T::zero()).then_some(env.omega);
 
     let eval =
         |root: &RootDyn<T>, q: &[T], w: &[T], length: &[T], jac: bool, sc: &mut Scratch<T>| {
@@ -235,10 +240,6 @@ pub(crate) fn step_strand<T: RealField + Copy>(
         }
         Integrator::ImplicitCoupled | Integrator::ImplicitBdf2 => {
             eval(root, q, w, length, true, sc);
-            // A turning head's Coriolis and centrifugal forces are implicit too: held explicit,
-            // the gyroscopic term gains energy every step (see `rotating_frame`).
-            let spin =
-                (env.has_frame_motion && env.omega.norm_squared() > T::zero()).then_some(env.omega);
             match previous.filter(|_| settings.integrator == Integrator::ImplicitBdf2) {
                 Some(previous) => {
                     if bdf2::solve_step(root, p, q, w, length, previous, h, settings, spin, sc) {
@@ -252,7 +253,7 @@ pub(crate) fn step_strand<T: RealField + Copy>(
             }
         }
         Integrator::ImplicitRos2 => {
-            rosenbrock::advance(
+            if rosenbrock::advance(
                 &rosenbrock::ROS2,
                 root,
                 p,
@@ -261,12 +262,15 @@ pub(crate) fn step_strand<T: RealField + Copy>(
                 length,
                 h,
                 settings,
+                spin,
                 sc,
                 &eval,
-            );
+            ) {
+                sc.rosenbrock_fallbacks += 1;
+            }
         }
         Integrator::ImplicitRos3 => {
-            rosenbrock::advance(
+            if rosenbrock::advance(
                 &rosenbrock::ROS3,
                 root,
                 p,
@@ -275,9 +279,12 @@ pub(crate) fn step_strand<T: RealField + Copy>(
                 length,
                 h,
                 settings,
+                spin,
                 sc,
                 &eval,
-            );
+            ) {
+                sc.rosenbrock_fallbacks += 1;
+            }
         }
     }
 
