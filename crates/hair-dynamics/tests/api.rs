@@ -542,3 +542,50 @@ fn forces_for_the_next_step_act_for_one_step_only() {
     let moved = (queued.positions()[tip] - unpushed.positions()[tip]).norm();
     assert!(moved > 1e-4, "the push moved the tip only {moved} m");
 }
+
+/// Per-node forces for the next step act as the same forces queued by list, bit for bit, for
+/// one step only (the listed ones are cleared after it); a copy of the state carries them.
+#[test]
+fn node_forces_for_the_next_step_act_as_listed_ones() {
+    let (mut dense, id) = one_strand(
+        Style::Wavy {
+            amplitude: 0.01,
+            period: 0.08,
+        },
+        12,
+        0.25,
+        frame_along(Vector::new(0.3, -1.0, 0.2)),
+        Material::default(),
+    );
+    let mut listed = dense.clone();
+    let s = settings(1.0 / 60.0, Integrator::ImplicitCoupled, TorqueModel::Chain);
+    let env = Environment::default();
+    let nodes = dense.nodes(id);
+    let push = |i: usize| Vector::new(1e-4 * i as f32, -2e-4, 3e-5 * (i % 3) as f32);
+    let list: Vec<(u32, Vector)> = nodes.clone().map(|i| (i as u32, push(i))).collect();
+    listed.add_forces_for_next_step(&list).unwrap();
+    dense.add_node_forces_for_next_step(|state, forces| {
+        assert_eq!(forces.len(), state.node_count());
+        assert!(forces.iter().all(|f| *f == Vector::zeros()));
+        for i in nodes.clone() {
+            forces[i] += push(i);
+        }
+    });
+    let carried = dense.clone();
+    for k in 0..4 {
+        dense.step(&env, &s).unwrap();
+        listed.step(&env, &s).unwrap();
+        assert_eq!(dense.positions(), listed.positions(), "step {k}");
+        assert_eq!(dense.omega_phi(), listed.omega_phi(), "step {k}");
+    }
+    let mut unpushed = carried.clone();
+    unpushed.add_node_forces_for_next_step(|_, forces| forces.fill(Vector::zeros()));
+    let mut pushed = carried;
+    unpushed.step(&env, &s).unwrap();
+    pushed.step(&env, &s).unwrap();
+    assert_ne!(
+        unpushed.state_hash(),
+        pushed.state_hash(),
+        "the copy lost the forces"
+    );
+}
