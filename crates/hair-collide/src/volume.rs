@@ -472,19 +472,25 @@ impl<'a> Sampler<'a> {
             let alpha = (1.0 - decay).clamp(0.0, 1.0);
             let (base, frac) = self.lattice.cell_of(&p[i], self.inv_spacing);
             let ws = weights(&frac);
-            let corner = offsets.map(|o| self.points[base + o]);
-            let mut grid = Vector::zeros();
-            for (w, c) in ws.iter().zip(&corner) {
-                grid += Vector::new(c[0], c[1], c[2]) * *w;
+            // Velocity and density side by side, four lanes at once; the densest corner too.
+            let mut sum = [0.0; 4];
+            let mut densest: Real = 0.0;
+            for (w, o) in ws.iter().zip(offsets) {
+                let c = self.points[base + o];
+                for (s, x) in sum.iter_mut().zip(c) {
+                    *s += x * w;
+                }
+                densest = densest.max(c[3]);
             }
+            let grid = Vector::new(sum[0], sum[1], sum[2]);
             let own = v[i];
             let mut blended = own + (grid - own) * alpha;
             let mut pushed = false;
             // The density at the node is a weighted mean of its corners' (weights summing to
             // one within rounding, which the margin covers): where none comes near the target,
             // it does not exceed it, and the gradient is not needed.
-            if self.repulsion && corner.iter().any(|c| c[3] > self.near_target) {
-                let d = corner.map(|c| c[3]);
+            if self.repulsion && densest > self.near_target {
+                let d = offsets.map(|o| self.points[base + o][3]);
                 let (rho, gradient) = density_and_gradient(&d, &ws, &frac, self.inv_spacing);
                 let norm = gradient.norm();
                 if rho > self.target && norm > 0.0 {
