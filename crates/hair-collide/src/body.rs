@@ -3,7 +3,7 @@
 
 use crate::{BodySupport, CollisionSettings};
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
-use hair_ssv::{CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
+use hair_ssv::{BodyIdentity, CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
 use nalgebra::Isometry3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -20,6 +20,12 @@ pub struct BodyReport {
 
 /// The hard body constraint with its scratch buffers: after the first call, a call allocates
 /// nothing once the buffers have grown to the hair.
+///
+/// It also keeps, per node, a lower bound of the body's distance about where a sweep last
+/// queried it, so that a node the bound still keeps out of reach is not queried again (most
+/// nodes, most steps; the results are the same bits). The bounds hold for one body
+/// ([`MeshBody::identity`]) by one [`CollisionMethod`] and are dropped when either, or the node
+/// count, changes; they are kept in the body's own frame, so a part's pose may change.
 #[derive(Clone, Debug, Default)]
 pub struct BodyConstraint {
     body_nodes: Vec<BodyNode>,
@@ -29,13 +35,18 @@ pub struct BodyConstraint {
     /// The sweeps: the chains of this pass and the next (`[skeleton, first node asked]`, by
     /// skeleton), per skeleton its radius, the first node each chain moved, the chains in
     /// contact on the first pass (`[skeleton, first node in contact]`, global index), and per
-    /// node what its last test found.
+    /// node what its last test found and its clearance.
     sweep_chains: Vec<[u32; 2]>,
     sweep_next: Vec<[u32; 2]>,
     sweep_radius: Vec<Real>,
     sweep_moved: Vec<u32>,
     swept: Vec<[u32; 2]>,
     sweep_hits: Vec<SweepHit>,
+    /// The body, method and node count the clearances in `sweep_hits` were found for: they
+    /// bound that body's distances by that method only.
+    clearance_key: Option<(BodyIdentity, CollisionMethod, usize)>,
+    /// Tests set it to compare the sweeps without the clearances.
+    clearance_off: bool,
     /// Per node, during the depenetration ramp: how far its sphere may still reach into the
     /// body at the end of this step (m).
     allowance: Vec<Real>,
@@ -232,6 +243,15 @@ impl BodyConstraint {
                 let r = shared.nodes(SkeletonId(n));
                 shared.radius().get(r.start).copied().unwrap_or(0.0)
             }));
+            let key = (body.body.identity(), method, state.node_count());
+            if self.clearance_key != Some(key) {
+                // Found on another body (or this one changed), by another method, or for
+                // other nodes: none holds here.
+                for h in &mut self.sweep_hits {
+                    h.clearance = Clearance::default();
+                }
+                self.clearance_key = Some(key);
+            }
             self.sweep_hits
                 .resize(state.node_count(), SweepHit::default());
             self.swept.clear();
@@ -243,6 +263,7 @@ impl BodyConstraint {
                 self.sweep_moved.resize(self.sweep_chains.len(), u32::MAX);
                 self.chain_contact.reset(self.sweep_chains.len());
                 let (chains, skeleton_radius) = (&self.sweep_chains, &self.sweep_radius);
+                let use_clearance = !self.clearance_off;
                 let chain_contact = &self.chain_contact.0;
                 state.sweep_chains(
                     chains,
@@ -260,12 +281,30 @@ impl BodyConstraint {
                             body.distance_within(method, p, radius)
                                 .filter(|(d, _)| *d < radius)
                         };
-                        let hit = inside(&ask.at);
+                        // A node that its clearance from its last query still keeps out of
+                        // reach is recorded as a query out of reach would record it, without
+                        // the query: a look-up of the near field's cell (and for some a query
+                        // of the distance field) saved for most nodes after the first sweep.
+                        let local = body.local(&ask.at);
+                        let clear = slot.clearance;
+                        if use_clearance && clear.bound - (local - clear.at).norm() >= radius {
+                            *slot = SweepHit {
+                                normal: None,
+                                depth: 0.0,
+                                tested: true,
+                                corrected: false,
+                                clearance: clear,
+                            };
+                            return None;
+                        }
+                        let (hit, bound) = body.distance_within_clearance(method, &local, radius);
+                        let hit = hit.filter(|(d, _)| *d < radius);
                         *slot = SweepHit {
                             normal: hit.map(|(_, n)| n),
                             depth: hit.map_or(0.0, |(d, _)| -d),
                             tested: true,
                             corrected: false,
+                            clearance: Clearance { at: local, bound },
                         };
                         let (d, n) = hit?;
                         // Only the thread sweeping this chain writes its entry; the atomic
@@ -683,6 +722,28 @@ struct SweepHit {
     tested: bool,
     /// Whether the sweep that last tested it moved it to a place it could not confirm clear.
     corrected: bool,
+    /// The clearance a sweep's last query of it found (for the body and method of
+    /// `BodyConstraint::clearance_key`).
+    clearance: Clearance,
+}
+
+/// A lower bound of the body's distance about a place: the distance the constraint's method
+/// answers at any point `q` (the body's frame) is at least `bound - |q - at|`, or no answer
+/// ([`MeshBody::distance_within_clearance`]).
+#[derive(Clone, Copy, Debug)]
+struct Clearance {
+    at: Point,
+    bound: Real,
+}
+
+impl Default for Clearance {
+    /// None known: no place is out of reach by it.
+    fn default() -> Self {
+        Self {
+            at: Point::origin(),
+            bound: Real::NEG_INFINITY,
+        }
+    }
 }
 
 /// A node the hard body constraint tests, with the node before it on its skeleton.
@@ -723,6 +784,31 @@ struct Surface<'a> {
 }
 
 impl Surface<'_> {
+    /// Where `p` (hair frame) is in the body's own frame, where its distances are queried.
+    #[inline]
+    fn local(&self, p: &Point) -> Point {
+        match self.motion {
+            None => *p,
+            Some(m) => m.pose.inverse_transform_point(p),
+        }
+    }
+
+    /// [`MeshBody::distance_within_clearance`] at `local` (the body's frame), the normal in the
+    /// hair frame.
+    #[inline]
+    fn distance_within_clearance(
+        &self,
+        method: CollisionMethod,
+        local: &Point,
+        reach: Real,
+    ) -> (Option<(Real, Vector)>, Real) {
+        let (hit, clearance) = self.body.distance_within_clearance(method, local, reach);
+        match self.motion {
+            None => (hit, clearance),
+            Some(m) => (hit.map(|(d, n)| (d, m.pose.rotation * n)), clearance),
+        }
+    }
+
     /// [`MeshBody::distance_within`] at `p` (hair frame), the normal in the hair frame.
     #[inline]
     fn distance_within(
@@ -750,6 +836,200 @@ impl Surface<'_> {
                 let local = m.pose.inverse_transform_point(p);
                 let hit = self.body.distance(method, &local);
                 hit.map(|(d, n)| (d, m.pose.rotation * n))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hair_dynamics::{Material, Root, SkeletonDesc, Style, style_points};
+    use hair_ssv::wrinkled_torus;
+    use nalgebra::{Rotation3, Translation3, UnitQuaternion};
+    use proptest::prelude::*;
+
+    /// A ring-shaped body at `centre`.
+    fn torus(centre: Point) -> MeshBody {
+        let (v, t) = wrinkled_torus(centre, 0.1, 0.03, 5, 0.15, 48, 16);
+        MeshBody::new(v, t).expect("a valid torus")
+    }
+
+    /// Strands of 12 nodes, 0.2 m long, from `roots` (position, tilt about x and z from
+    /// hanging straight down), through and around the torus's tube.
+    fn strands(roots: &[(Point, Real, Real)]) -> StrandState {
+        let mut state = StrandState::new();
+        for &(root, tx, tz) in roots {
+            let frame = Rotation3::from_euler_angles(std::f32::consts::FRAC_PI_2 + tx, 0.0, tz);
+            state
+                .add_skeleton(&SkeletonDesc {
+                    root: Root::Attached {
+                        position: root,
+                        frame,
+                    },
+                    points: style_points(root, &frame, &Style::Straight, 12, 0.2).unwrap(),
+                    material: Material::default(),
+                })
+                .unwrap();
+        }
+        state
+    }
+
+    /// Every node's place, velocity and angles, as bits.
+    fn bits(state: &StrandState) -> Vec<u32> {
+        let p = state
+            .positions()
+            .iter()
+            .flat_map(|p| p.coords.iter().copied());
+        let v = state.velocities().iter().flat_map(|v| v.iter().copied());
+        let a = state.theta().iter().chain(state.phi()).copied();
+        p.chain(v).chain(a).map(Real::to_bits).collect()
+    }
+
+    /// The same small moves of every third node of both states.
+    fn nudge(states: [&mut StrandState; 2], seed: u64) {
+        let mut corrections = Vec::new();
+        let mut x = seed;
+        let mut next = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((x >> 40) as Real / (1u64 << 24) as Real - 0.5) * 0.01
+        };
+        for node in (1..states[0].node_count() as u32).step_by(3) {
+            corrections.push(NodeCorrection {
+                node,
+                delta: Vector::new(next(), next(), next()),
+            });
+        }
+        for s in states {
+            s.apply_corrections(&corrections).unwrap();
+        }
+    }
+
+    /// Roots on five rings about the vertical through `centre`, 0.1 m above it, each strand
+    /// tilted a little: the rings span the torus's tube and a little more each side.
+    fn roots_around(centre: Point) -> Vec<(Point, Real, Real)> {
+        let mut roots = Vec::new();
+        for i in 0..24 {
+            let a = std::f32::consts::TAU * i as Real / 24.0;
+            for r in [0.07, 0.085, 0.1, 0.115, 0.13] {
+                let p = centre + Vector::new(r * a.cos(), 0.1, r * a.sin());
+                roots.push((p, 0.1 * (i % 3) as Real - 0.1, 0.05 * (i % 5) as Real - 0.1));
+            }
+        }
+        roots
+    }
+
+    /// One constraint applied in turn to two bodies a little apart, to a clone of one whose
+    /// structures were replaced by the other's, and by both methods, moves the hair exactly as
+    /// a new constraint for each call does: no clearance found on one surface or by one method
+    /// is used on another.
+    #[test]
+    fn clearances_are_not_used_across_surfaces_or_methods() {
+        let a = torus(Point::new(0.0, -0.1, 0.0));
+        let b = torus(Point::new(0.012, -0.1, 0.004));
+        let mut replaced = a.clone();
+        replaced.vertices = b.vertices.clone();
+        replaced.triangles = b.triangles.clone();
+        replaced.bvh = b.bvh.clone();
+        replaced.near = b.near.clone();
+        replaced.field = b.field.clone();
+        replaced.pseudo_normals = b.pseudo_normals.clone();
+        assert_ne!(replaced.identity(), a.identity());
+        let roots = roots_around(Point::new(0.0, -0.1, 0.0));
+        let (mut shared, mut fresh) = (strands(&roots), strands(&roots));
+        let front: Vec<u32> = (0..roots.len() as u32).collect();
+        let mut constraint = BodyConstraint::new();
+        let (field, bvh) = (CollisionMethod::Field, CollisionMethod::Bvh);
+        let calls = [
+            (&a, field),
+            (&b, field),
+            (&a, field),
+            (&replaced, field),
+            (&a, field),
+            (&a, bvh),
+            (&a, field),
+            (&b, bvh),
+            (&b, field),
+            (&a, field),
+        ];
+        let mut contacts = 0;
+        for (k, &(body, method)) in calls.iter().cycle().take(30).enumerate() {
+            let settings = CollisionSettings {
+                depenetration_steps: 0,
+                method,
+                ..CollisionSettings::default()
+            };
+            let step = k as u64;
+            let report = constraint
+                .apply(&mut shared, body, &front, step, &settings)
+                .unwrap();
+            let expected = BodyConstraint::new()
+                .apply(&mut fresh, body, &front, step, &settings)
+                .unwrap();
+            assert_eq!(report, expected, "call {k}");
+            assert_eq!(bits(&shared), bits(&fresh), "call {k}");
+            contacts += report.contacts;
+            nudge([&mut shared, &mut fresh], k as u64);
+        }
+        assert!(contacts > 100, "{contacts} contacts");
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
+        /// Over random strands near a body, moved between calls, and the body still or posed
+        /// as a moving part, the sweeps give the same bits with the clearances as without.
+        #[test]
+        fn clearances_change_no_result(
+            roots in prop::collection::vec(
+                ((-0.15f32..0.15, -0.02f32..0.12, -0.15f32..0.15), -0.4f32..0.4, -0.4f32..0.4),
+                4..40,
+            ),
+            poses in prop::collection::vec(
+                (any::<bool>(), -0.01f32..0.01, -0.2f32..0.2),
+                6..12,
+            ),
+            seed in any::<u64>(),
+            field in any::<bool>(),
+        ) {
+            static BODY: std::sync::OnceLock<MeshBody> = std::sync::OnceLock::new();
+            let body = BODY.get_or_init(|| torus(Point::new(0.0, -0.1, 0.0)));
+            let roots: Vec<_> =
+                roots.iter().map(|&((x, y, z), tx, tz)| (Point::new(x, y, z), tx, tz)).collect();
+            let (mut with, mut without) = (strands(&roots), strands(&roots));
+            let front: Vec<u32> = (0..roots.len() as u32).collect();
+            let mut cached = BodyConstraint::new();
+            let mut plain = BodyConstraint { clearance_off: true, ..BodyConstraint::new() };
+            let settings = CollisionSettings {
+                depenetration_steps: 0,
+                method: if field { CollisionMethod::Field } else { CollisionMethod::Bvh },
+                ..CollisionSettings::default()
+            };
+            let mut previous = Isometry3::identity();
+            for (k, &(moving, shift, turn)) in poses.iter().enumerate() {
+                let step = k as u64;
+                let (x, y) = if moving {
+                    let pose = Isometry3::from_parts(
+                        Translation3::new(shift, 0.5 * shift, 0.0),
+                        UnitQuaternion::from_euler_angles(0.0, turn, 0.0),
+                    );
+                    let motion = PartMotion { pose, previous, dt: 1.0 / 60.0 };
+                    previous = pose;
+                    (
+                        cached.apply_moving(&mut with, body, &motion, &front, step, &settings),
+                        plain.apply_moving(&mut without, body, &motion, &front, step, &settings),
+                    )
+                } else {
+                    (
+                        cached.apply(&mut with, body, &front, step, &settings),
+                        plain.apply(&mut without, body, &front, step, &settings),
+                    )
+                };
+                prop_assert_eq!(x.unwrap(), y.unwrap(), "call {}", k);
+                prop_assert_eq!(bits(&with), bits(&without), "call {}", k);
+                nudge([&mut with, &mut without], seed.wrapping_add(k as u64));
             }
         }
     }

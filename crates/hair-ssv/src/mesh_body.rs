@@ -7,6 +7,7 @@
 use crate::distance_field::DistanceField;
 use crate::{Body, Bvh, Point, Real, SsvError, Vector};
 use std::f32::consts::TAU;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Hair within this distance of the body (m) gets an exact query; radii above it are clamped.
 pub const NEAR_MARGIN: Real = 0.02;
@@ -51,6 +52,28 @@ pub struct MeshBody {
     /// The pseudo-normals that give the side of a point whose closest surface point is on an
     /// edge or a vertex, for a closed surface (`None` for an open one).
     pub pseudo_normals: Option<PseudoNormals>,
+    /// Which [`MeshBody::new`] built it (a clone keeps it): see [`MeshBody::identity`].
+    id: u64,
+}
+
+/// Ids of the bodies built: a body built later never takes an earlier one's, even once that
+/// one is dropped and its storage reused.
+static NEXT_BODY_ID: AtomicU64 = AtomicU64::new(0);
+
+/// What a [`MeshBody`]'s distance queries are answered from, cheap to compare: which
+/// [`MeshBody::new`] built it (a clone keeps that) and where the structures the queries read are
+/// stored, with whether it counts as closed. A body's fields are public, so it can be changed
+/// after it was built: a structure replaced by assignment was built while the old one was still
+/// stored, so it lies elsewhere and the identity changes. Changing the contents of a structure
+/// in place keeps it: of the structures, only the collision tables' parts ([`Body::parts`]) can
+/// be changed so.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BodyIdentity {
+    id: u64,
+    /// The BVH's triangles, the near field's centres, the distance field's samples, the
+    /// pseudo-normals and the collision tables' parts (0 where absent).
+    storage: [usize; 5],
+    closed: bool,
 }
 
 /// Angle-weighted pseudo-normals of a closed, consistently wound mesh (Baerentzen and Aanaes,
@@ -462,6 +485,7 @@ impl MeshBody {
             field,
             closed,
             pseudo_normals,
+            id: NEXT_BODY_ID.fetch_add(1, Ordering::Relaxed),
         };
         body.near = NearField::build(&body, NEAR_MARGIN);
         Ok(body)
@@ -471,6 +495,29 @@ impl MeshBody {
     /// closest surface point, by the exact BVH query.
     pub fn signed_distance(&self, p: &Point) -> Option<(Real, Vector, Point)> {
         exact_signed_distance(&self.bvh, self.pseudo_normals.as_ref(), p)
+    }
+
+    /// What this body's distance queries are answered from: two bodies (or one body at two
+    /// times) with the same identity answer every query alike, so what was learned from the
+    /// answers of one holds for the other (unless the tables' parts were changed in place:
+    /// see [`BodyIdentity`]).
+    pub fn identity(&self) -> BodyIdentity {
+        let at = |p: *const u8| p as usize;
+        BodyIdentity {
+            id: self.id,
+            storage: [
+                at(self.bvh.tris.as_ptr().cast()),
+                at(self.near.centre.as_ptr().cast()),
+                at(self.field.samples.as_ptr().cast()),
+                self.pseudo_normals
+                    .as_ref()
+                    .map_or(0, |n| at(n.per_triangle.as_ptr().cast())),
+                self.maps
+                    .as_ref()
+                    .map_or(0, |m| at(m.parts.as_ptr().cast())),
+            ],
+            closed: self.closed,
+        }
     }
 
     /// [`MeshBody::distance`] where it may be below `reach`, else `None`: points that the
@@ -485,24 +532,66 @@ impl MeshBody {
         p: &Point,
         reach: Real,
     ) -> Option<(Real, Vector)> {
+        self.distance_within_clearance(method, p, reach).0
+    }
+
+    /// [`MeshBody::distance_within`] at `p`, and the clearance found there: a `b` such that,
+    /// wherever `q` is, `distance_within(method, q, r)` (any `r`) is `None` or at least
+    /// `b - |q - p|`; `-inf` where none is known (an open mesh, `Maps`, or `p` outside the near
+    /// field). A caller that keeps `p` and `b` need not ask again at a `q` with
+    /// `b - |q - p| >= r` (for this body: see [`MeshBody::identity`], and this method). The
+    /// clearance keeps the near field's margin for rounding (1e-6 m), so asking again there
+    /// would have answered `None` or a distance of at least `r`.
+    #[inline]
+    pub fn distance_within_clearance(
+        &self,
+        method: CollisionMethod,
+        p: &Point,
+        reach: Real,
+    ) -> (Option<(Real, Vector)>, Real) {
         let error = match method {
             // A field value is a convex combination of exact samples within a cell diagonal.
             CollisionMethod::Field => self.field.spacing() * 3f32.sqrt() * 1.001,
             CollisionMethod::Bvh => 0.0,
             CollisionMethod::Maps => Real::INFINITY,
         };
+        // How far the method's answer can be from the exact distance, for the clearance: a
+        // field value is the trilinear mean of exact samples at its cell's corners, and the
+        // corners' mean distance from the point is at most half the diagonal (their weighted
+        // squared distances add up to at most `3 h^2 / 4`, and the mean of the distances is at
+        // most the root of that), so the answer is within half a diagonal of the exact
+        // distance; `error`, which the near field's test keeps, takes a whole one.
+        let spread = 0.5 * error;
+        let mut clearance = Real::NEG_INFINITY;
         // One look-up of the near field serves the bound and the margin (`distance`'s own).
         if !self.near.centre.is_empty() {
-            let (k, c) = self.near.cell_of(p)?;
+            let Some((k, c)) = self.near.cell_of(p) else {
+                return (None, clearance);
+            };
             let centre = self.near.centre[k];
-            if self.closed && centre - (p - c).norm() - error - 1e-6 >= reach {
-                return None;
+            // The exact distance at `p` is at least the centre's less the way to it, and at
+            // `q` at least that less `|q - p|` (a closed surface's signed distance changes no
+            // faster than the point moves); the method answers within `spread` of it.
+            let r = (p - c).norm();
+            if self.closed {
+                clearance = centre - r - spread - 1e-6;
+                if centre - r - error - 1e-6 >= reach {
+                    return (None, clearance);
+                }
             }
             if centre > self.near.reach {
-                return None;
+                return (None, clearance);
             }
         }
-        self.distance_near(method, p)
+        let hit = self.distance_near(method, p);
+        if self.closed
+            && let Some((d, _)) = hit
+        {
+            // The answer `d` is within `spread` of the exact distance at `p`, whose value at
+            // `q` is at least that less `|q - p|`, and the answer at `q` within `spread` of it.
+            clearance = clearance.max(d - 2.0 * spread - 1e-6);
+        }
+        (hit, clearance)
     }
 
     /// Signed distance and outward normal by `method`, or `None` when `p` is farther than
@@ -826,6 +915,55 @@ mod tests {
             }
         }
         assert!(skipped > 1000, "{skipped} queries skipped");
+    }
+
+    /// On closed bodies the clearance `distance_within_clearance` finds at a point bounds the
+    /// answer at every point near it, less the way there, by both methods, whether the near
+    /// field turned the point away or the method answered; and a field value is within half a
+    /// cell diagonal of the exact distance, which that bound takes.
+    #[test]
+    fn clearances_bound_the_answers_about_them() {
+        let (head, torus) = closed_test_bodies();
+        let mut rng = SplitMix::new(5);
+        let (mut turned_away, mut answered) = (0, 0);
+        for body in [&head, &torus] {
+            let half_diagonal = body.field.spacing() * 3f32.sqrt() * 0.5;
+            for _ in 0..3000 {
+                let (s, _) = rng.surface_point(body.bvh.triangles(), 0.0);
+                let mut offset = |scale: Real| {
+                    Vector::new(
+                        rng.range(-1.0, 1.0),
+                        rng.range(-1.0, 1.0),
+                        rng.range(-1.0, 1.0),
+                    ) * scale
+                };
+                let p = s + offset(0.03);
+                let q = p + offset(0.01);
+                if let (Some((f, _)), Some((e, _, _))) = (
+                    body.distance(CollisionMethod::Field, &p),
+                    body.signed_distance(&p),
+                ) {
+                    assert!((f - e).abs() <= half_diagonal, "{p:?}: {f} against {e}");
+                }
+                for method in [CollisionMethod::Bvh, CollisionMethod::Field] {
+                    let (hit, b) = body.distance_within_clearance(method, &p, 0.004);
+                    assert_eq!(hit, body.distance_within(method, &p, 0.004));
+                    if b == Real::NEG_INFINITY {
+                        continue;
+                    }
+                    turned_away += usize::from(hit.is_none());
+                    answered += usize::from(hit.is_some());
+                    if let Some((d, _)) = body.distance(method, &q) {
+                        let floor = b - (q - p).norm();
+                        assert!(d >= floor, "{method:?} {p:?} {q:?}: {d} below {floor}");
+                    }
+                }
+            }
+        }
+        assert!(
+            turned_away > 1000 && answered > 1000,
+            "{turned_away} {answered}"
+        );
     }
 
     /// The unit cube `[0, 1]^3`, wound outward; its first two triangles are the bottom (z = 0)
