@@ -31,9 +31,14 @@ pub struct DrawnStrands {
     strand_node: Vec<u32>,
     /// Transport frames of the front skeletons' nodes, by global node index.
     node_frames: Vec<Matrix3<Real>>,
-    /// The front skeletons' node ranges and ids `(start, end, node)`, ascending: the frames are
-    /// filled by splitting `node_frames` along them.
+    /// The node ranges and ids `(start, end, node)` of the front skeletons that draw a strand
+    /// off their own points, ascending: the frames are filled by splitting `node_frames` along
+    /// them.
     front_ranges: Vec<(usize, usize, u32)>,
+    /// Per node, whether a strand it draws lies off its points (an offset over
+    /// [`OFFSET_DRAWN`]): only those need transport frames. A skeleton that is its own strand
+    /// (a scene of as many skeletons as strands) needs none.
+    node_framed: Vec<bool>,
     /// Per node, where its strands' offsets start in `strand_local`.
     node_local_start: Vec<u32>,
     /// Each strand's offset from each node containing it, per control point, in that node's
@@ -67,6 +72,7 @@ impl DrawnStrands {
             strand_node: Vec::new(),
             node_frames: Vec::new(),
             front_ranges: Vec::new(),
+            node_framed: Vec::new(),
             node_local_start: Vec::new(),
             strand_local: Vec::new(),
             strand_slot: Vec::new(),
@@ -126,6 +132,7 @@ impl DrawnStrands {
         let mut rest = Vec::new();
         self.node_local_start.clear();
         self.strand_local.clear();
+        self.node_framed.clear();
         for node in 0..h.node_count() as u32 {
             self.node_local_start.push(self.strand_local.len() as u32);
             h.rest_points_into(node, &mut rest);
@@ -139,6 +146,13 @@ impl DrawnStrands {
                     self.strand_local.push(frames[k_node].transpose() * d);
                 }
             }
+            let start = self.node_local_start[node as usize] as usize;
+            let offsets = &self.strand_local[start..];
+            self.node_framed.push(
+                offsets
+                    .iter()
+                    .any(|d| d.norm_squared() > OFFSET_DRAWN * OFFSET_DRAWN),
+            );
         }
         self.assign(h, state, front);
     }
@@ -169,10 +183,12 @@ impl DrawnStrands {
             self.strand_rank[s as usize] = k as u32;
         }
         self.front_ranges.clear();
-        self.front_ranges.extend(front.iter().map(|&n| {
-            let r = state.nodes(SkeletonId(n));
-            (r.start, r.end, n)
-        }));
+        let framed = &self.node_framed;
+        self.front_ranges
+            .extend(front.iter().filter(|&&n| framed[n as usize]).map(|&n| {
+                let r = state.nodes(SkeletonId(n));
+                (r.start, r.end, n)
+            }));
         self.front_ranges.sort_unstable();
     }
 
@@ -210,6 +226,7 @@ impl DrawnStrands {
         let node_frames = &self.node_frames;
         let local = &self.strand_local;
         let slot = &self.strand_slot;
+        let framed = &self.node_framed;
         // Curves in the front's order first: consecutive strands then share their skeleton's
         // nodes and frames, where strand order reads them from all over the state (a strand's
         // neighbours in number almost never share its skeleton). Then copied out in strand
@@ -232,9 +249,13 @@ impl DrawnStrands {
                 let mut control = [Point::origin(); 64];
                 let count = p.len().min(per).min(64);
                 let mut ok = true;
+                let framed = framed[node as usize];
                 for k in 0..count {
-                    control[k] =
-                        origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k]);
+                    control[k] = if framed {
+                        origin + rot * (p[k].coords + frames[k] * local[slot[s] as usize + k])
+                    } else {
+                        origin + rot * p[k].coords
+                    };
                     let c = control[k];
                     // False for NaN too.
                     ok &= (c.x.abs() < DRAWABLE) & (c.y.abs() < DRAWABLE) & (c.z.abs() < DRAWABLE);
@@ -280,6 +301,11 @@ impl DrawnStrands {
         }
     }
 }
+
+/// Offsets of a strand from its skeleton up to this (m) are drawn as none: a skeleton that is
+/// its own strand lies off it by the rounding of its resampling (well under a micrometre), and
+/// following it needs no transport frames.
+const OFFSET_DRAWN: Real = 1e-6;
 
 /// Drawn control points farther than this from the origin (m) stop a step with
 /// an error: hair there has left any scene, and the curves through such
