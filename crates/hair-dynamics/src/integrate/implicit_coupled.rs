@@ -247,13 +247,7 @@ fn structured_solve<T: RealField + Copy>(
     let h2 = h * h;
     let chain = model == TorqueModel::Chain;
     let velocity = |j: usize| Vector2::new(w[2 * j], w[2 * j + 1]);
-
-    // Root to tip: the prefix sums of A w (J w needs them on the right-hand side).
-    let mut prefix = Vector3::zeros();
-    for j in 0..joints {
-        sc.sweep_prefix[j] = prefix;
-        prefix += joint_axes(sc, j) * velocity(j);
-    }
+    velocity_prefix_sums(w, sc);
 
     // Tip to root: J w, the right-hand side, and the elimination.
     let mut gain_m = Matrix3::zeros();
@@ -308,6 +302,16 @@ fn structured_solve<T: RealField + Copy>(
     solve_and_check(joints, h2, chain, sc)
 }
 
+/// Root to tip, the prefix sums `sum_{k<j} A_k w_k` of the joints' rates `w` into
+/// `sc.sweep_prefix` (J w needs them on the right-hand side).
+pub(super) fn velocity_prefix_sums<T: RealField + Copy>(w: &[T], sc: &mut Scratch<T>) {
+    let mut prefix = Vector3::zeros();
+    for j in 0..w.len() / 2 {
+        sc.sweep_prefix[j] = prefix;
+        prefix += joint_axes(sc, j) * Vector2::new(w[2 * j], w[2 * j + 1]);
+    }
+}
+
 /// [`structured_solve`] for a new right-hand side of the system whose factors `sc.sweep_*`
 /// hold: the same arithmetic on the right-hand side, in the same order, without the matrix's.
 fn structured_solve_again<T: RealField + Copy>(
@@ -322,11 +326,7 @@ fn structured_solve_again<T: RealField + Copy>(
     let h2 = h * h;
     let chain = model == TorqueModel::Chain;
     let velocity = |j: usize| Vector2::new(w[2 * j], w[2 * j + 1]);
-    let mut prefix = Vector3::zeros();
-    for j in 0..joints {
-        sc.sweep_prefix[j] = prefix;
-        prefix += joint_axes(sc, j) * velocity(j);
-    }
+    velocity_prefix_sums(w, sc);
     let mut gain_r = Vector3::zeros();
     let mut suffix_w = Vector3::zeros();
     for j in (0..joints).rev() {

@@ -14,7 +14,7 @@
 //! six-dimensional prefix sums (the twists) and nine-dimensional suffix sums (the load's three and
 //! the twists' six) in place of three and three: still `O(n)`.
 
-use super::implicit_coupled::{diagonal_and_rhs, invert_2x2, joint_axes, residual_tolerance};
+use super::implicit_coupled::{self, diagonal_and_rhs, invert_2x2, joint_axes, residual_tolerance};
 use crate::TorqueModel;
 use crate::strand::{self, RootDyn, Scratch, StrandParams};
 use nalgebra::{Matrix2, Matrix3, Matrix6, RealField, SMatrix, Vector2, Vector3, Vector6};
@@ -154,13 +154,7 @@ pub(super) fn structured_solve<T: RealField + Copy>(
     let h2 = h * h;
     let chain = model == TorqueModel::Chain;
     let velocity = |j: usize| Vector2::new(w[2 * j], w[2 * j + 1]);
-
-    // Root to tip: the prefix sums of A w (J w needs them on the right-hand side).
-    let mut prefix = Vector3::zeros();
-    for j in 0..joints {
-        sc.sweep_prefix[j] = prefix;
-        prefix += joint_axes(sc, j) * velocity(j);
-    }
+    implicit_coupled::velocity_prefix_sums(w, sc);
 
     let mut gain_m = SMatrix::<T, 9, 6>::zeros();
     let mut gain_r = SMatrix::<T, 9, 1>::zeros();
