@@ -254,6 +254,29 @@ impl BodyConstraint {
             }
             self.sweep_hits
                 .resize(state.node_count(), SweepHit::default());
+            if !self.clearance_off {
+                // Each chain starts at its first node that its clearance does not keep out of
+                // reach, and a chain with none is not swept: the sweep would record those nodes
+                // as out of reach without a query and move none of them (what it records there
+                // is read this step only from a chain's first contact on, and their clearances
+                // stay as they are). Most chains, most steps, in one pass without the sweep's
+                // per-node work.
+                let (hits, positions) = (&self.sweep_hits, state.positions());
+                let (radius, shared) = (&self.sweep_radius, &*state);
+                self.sweep_chains.par_iter_mut().for_each(|chain| {
+                    let [n, from] = *chain;
+                    let r = shared.nodes(SkeletonId(n));
+                    let reach = radius[n as usize];
+                    let clear = |i: &usize| {
+                        let c = hits[*i].clearance;
+                        c.bound - (body.local(&positions[*i]) - c.at).norm() >= reach
+                    };
+                    chain[1] = (r.start + from as usize..r.end)
+                        .find(|i| !clear(i))
+                        .map_or(u32::MAX, |i| (i - r.start) as u32);
+                });
+                self.sweep_chains.retain(|c| c[1] != u32::MAX);
+            }
             self.swept.clear();
             for pass in 0..settings.body_passes {
                 if self.sweep_chains.is_empty() {
