@@ -12,6 +12,7 @@ use crate::{CollideError, VolumeSettings};
 use hair_dynamics::{SkeletonId, StrandState};
 use hair_ssv::{Point, Real, Vector};
 use rayon::prelude::*;
+use wide::{f32x4, f32x8};
 
 /// Nodes per part of the skeletons (whole skeletons, so a little more): the parallel grain of
 /// the gathering and the sampling, and the unit the splat's copies are cut along. A constant,
@@ -60,23 +61,44 @@ impl Default for Lattice {
     }
 }
 
-impl Lattice {
-    /// The index of the lowest corner of the cell holding `p`, and `p`'s place in that cell,
-    /// each coordinate in [0, 1]; `inv` is `1 / spacing`.
-    #[inline]
-    fn cell_of(&self, p: &Point, inv: Real) -> (usize, [Real; 3]) {
-        let local = (p - self.origin) * inv;
-        let mut cell = [0usize; 3];
-        let mut frac = [0.0; 3];
-        for a in 0..3 {
-            // Within the lattice by construction; clamped so that rounding cannot take a node
-            // on the far face out of it.
-            let c = (local[a].floor().max(0.0) as usize).min(self.dims[a] - 2);
-            cell[a] = c;
-            frac[a] = (local[a] - c as Real).clamp(0.0, 1.0);
+/// Finds nodes' cells in one [`Lattice`], with what every look-up shares worked out once.
+#[derive(Clone, Copy)]
+struct Locator {
+    origin: Point,
+    inv_spacing: Real,
+    /// The highest cell's lowest corner along each axis (`dims - 2`).
+    top: f32x4,
+    /// Index offsets from a lattice point to the next along y and along z.
+    dy: usize,
+    dz: usize,
+}
+
+impl Locator {
+    fn new(lattice: &Lattice) -> Self {
+        let [nx, ny, nz] = lattice.dims.map(|d| (d - 2) as Real);
+        Self {
+            origin: lattice.origin,
+            inv_spacing: 1.0 / lattice.spacing,
+            top: f32x4::new([nx, ny, nz, 0.0]),
+            dy: lattice.dims[0],
+            dz: lattice.dims[0] * lattice.dims[1],
         }
-        let [x, y, z] = cell;
-        ((z * self.dims[1] + y) * self.dims[0] + x, frac)
+    }
+
+    /// The index of the lowest corner of the cell holding `p`, and `p`'s place in that cell,
+    /// each coordinate in [0, 1].
+    #[inline]
+    fn cell_of(&self, p: &Point) -> (usize, [Real; 3]) {
+        let local = (p - self.origin) * self.inv_spacing;
+        let local = f32x4::new([local.x, local.y, local.z, 0.0]);
+        // Within the lattice by construction; clamped so that rounding cannot take a node on
+        // the far face out of it. The cell's coordinates are small whole numbers, so they
+        // convert exactly.
+        let cell = local.floor().fast_max(f32x4::ZERO).fast_min(self.top);
+        let frac = (local - cell).fast_max(f32x4::ZERO).fast_min(f32x4::ONE);
+        let [x, y, z, _] = cell.fast_trunc_int().to_array().map(|c| c as usize);
+        let [fx, fy, fz, _] = frac.to_array();
+        (z * self.dz + y * self.dy + x, [fx, fy, fz])
     }
 }
 
@@ -149,6 +171,7 @@ impl HairVolume {
             return Ok(VolumeReport::default());
         }
         let sampler = Sampler::new(self, settings, dt);
+        let inv_dt = 1.0 / dt;
         let repelled = state.add_node_forces_for_next_step(|state, forces| {
             let first = |part: &Part| state.nodes(SkeletonId(self.skeletons[part.start])).start;
             let (mass, wetness, v) = (state.mass(), state.wetness(), state.velocities());
@@ -160,7 +183,7 @@ impl HairVolume {
                 for part in parts {
                     for &s in &self.skeletons[part.start..part.end] {
                         sampler.skeleton(state, s, |i, target, pushed| {
-                            let force = (target - v[i]) * ((mass[i] + wetness[i]) / dt);
+                            let force = (target - v[i]) * ((mass[i] + wetness[i]) * inv_dt);
                             forces[i - base] += force;
                             repelled += usize::from(pushed);
                         });
@@ -275,19 +298,26 @@ impl HairVolume {
             .par_iter()
             .map(|part| {
                 let mut sums = PartSums::default();
+                // Without a branch a node: a non-finite coordinate makes its product with zero
+                // NaN, and then the part is searched again for the first such node.
+                let mut finite = true;
                 for &s in &skeletons[part.start..part.end] {
                     let r = state.nodes(SkeletonId(s));
                     for i in r.start + 1..r.end {
-                        if !(p[i].coords.iter().all(|x| x.is_finite())
-                            && v[i].iter().all(|x| x.is_finite()))
-                        {
-                            sums.non_finite.get_or_insert(i);
-                            continue;
-                        }
-                        sums.lo = sums.lo.inf(&p[i]);
-                        sums.hi = sums.hi.sup(&p[i]);
+                        let (q, u) = (p[i], v[i]);
+                        let zero = q.coords * 0.0 + u * 0.0;
+                        finite &= (zero.x == 0.0) & (zero.y == 0.0) & (zero.z == 0.0);
+                        sums.lo = sums.lo.inf(&q);
+                        sums.hi = sums.hi.sup(&q);
                         sums.length += f64::from(length[i]);
                     }
+                }
+                if !finite {
+                    let finite = |x: &Real| x.is_finite();
+                    sums.non_finite = skeletons[part.start..part.end]
+                        .iter()
+                        .flat_map(|&s| state.nodes(SkeletonId(s)).skip(1))
+                        .find(|&i| !(p[i].coords.iter().all(finite) && v[i].iter().all(finite)));
                 }
                 sums
             })
@@ -322,8 +352,8 @@ impl HairVolume {
         self.points.resize(len, [0.0; 4]);
         let (p, v, mass) = (state.positions(), state.velocities(), state.mass());
         let (parts, skeletons) = (&self.parts, &self.skeletons);
-        let inv = 1.0 / lattice.spacing;
-        let offsets = corner_offsets(lattice.dims);
+        let locator = Locator::new(&lattice);
+        let (dy, dz) = (locator.dy, locator.dz);
         self.copies
             .par_chunks_mut(len)
             .enumerate()
@@ -334,14 +364,19 @@ impl HairVolume {
                     for &s in &skeletons[part.start..part.end] {
                         let r = state.nodes(SkeletonId(s));
                         for i in r.start + 1..r.end {
-                            let (base, frac) = lattice.cell_of(&p[i], inv);
-                            let m = mass[i];
-                            let share = [m, v[i].x * m, v[i].y * m, v[i].z * m];
-                            for (w, corner) in weights(&frac).into_iter().zip(offsets) {
-                                let point = &mut grid[base + corner];
-                                for (sum, x) in point.iter_mut().zip(share) {
-                                    *sum += x * w;
-                                }
+                            let (base, frac) = locator.cell_of(&p[i]);
+                            let cell = CellWeights::new(&frac);
+                            let (m, u) = (mass[i], v[i] * mass[i]);
+                            // Mass and momentum twice over, times the weights along x, added to
+                            // the cell's four rows (pairs of points along x).
+                            let share = f32x8::new([m, u.x, u.y, u.z, m, u.x, u.y, u.z]) * cell.x;
+                            let (low, high) = grid[base..].split_at_mut(dz);
+                            let halves = [(&mut low[..dy + 2], 0), (&mut high[..dy + 2], 2)];
+                            for (half, k) in halves {
+                                let (near, far) = half.split_at_mut(dy);
+                                let (near, far) = (&mut near[..2], &mut far[..2]);
+                                store_pair(near, load_pair(near) + share * cell.yz[k]);
+                                store_pair(far, load_pair(far) + share * cell.yz[k + 1]);
                             }
                         }
                     }
@@ -423,9 +458,8 @@ where
 /// The sampling of one step: each node's velocity blended toward the lattice's at its place,
 /// plus the repulsion.
 struct Sampler<'a> {
-    lattice: Lattice,
+    locator: Locator,
     points: &'a [[Real; 4]],
-    inv_spacing: Real,
     /// The repulsion's density target (kg/m³), whether it acts, and its speed (m/s).
     target: Real,
     near_target: Real,
@@ -442,9 +476,8 @@ impl<'a> Sampler<'a> {
         let lattice = volume.lattice;
         let target = settings.density_limit * volume.mean_density;
         Self {
-            lattice,
+            locator: Locator::new(&lattice),
             points: &volume.points,
-            inv_spacing: 1.0 / lattice.spacing,
             target,
             near_target: target * (1.0 - 1e-4),
             repulsion: settings.repulsion && target > 0.0,
@@ -466,32 +499,43 @@ impl<'a> Sampler<'a> {
         // exponentials a skeleton instead of one a node.
         let step = (-(self.tip_rate - self.root_rate) * self.dt / last).exp();
         let mut decay = (-self.root_rate * self.dt).exp();
-        let offsets = corner_offsets(self.lattice.dims);
+        let (dy, dz) = (self.locator.dy, self.locator.dz);
         for i in r.start + 1..r.end {
             decay *= step;
             let alpha = (1.0 - decay).clamp(0.0, 1.0);
-            let (base, frac) = self.lattice.cell_of(&p[i], self.inv_spacing);
-            let ws = weights(&frac);
-            // Velocity and density side by side, four lanes at once; the densest corner too.
-            let mut sum = [0.0; 4];
-            let mut densest: Real = 0.0;
-            for (w, o) in ws.iter().zip(offsets) {
-                let c = self.points[base + o];
-                for (s, x) in sum.iter_mut().zip(c) {
-                    *s += x * w;
+            let (base, frac) = self.locator.cell_of(&p[i]);
+            let cell = CellWeights::new(&frac);
+            // Velocity and density side by side, a pair of corners along x at once: the four
+            // rows weighted along y and z, then the two ends along x, then the ends summed.
+            // The densest corner too.
+            let mut sum = f32x8::ZERO;
+            let mut densest = f32x8::ZERO;
+            let halves = [
+                (&self.points[base..base + dy + 2], 0),
+                (&self.points[base + dz..base + dz + dy + 2], 2),
+            ];
+            for (half, k) in halves {
+                for (pair, w) in [
+                    (&half[..2], cell.yz[k]),
+                    (&half[dy..dy + 2], cell.yz[k + 1]),
+                ] {
+                    let pair = load_pair(pair);
+                    sum += pair * w;
+                    densest = densest.fast_max(pair);
                 }
-                densest = densest.max(c[3]);
             }
-            let grid = Vector::new(sum[0], sum[1], sum[2]);
+            let [x0, y0, z0, _, x1, y1, z1, _] = (sum * cell.x).to_array();
+            let densest = densest.to_array();
+            let grid = Vector::new(x0 + x1, y0 + y1, z0 + z1);
             let own = v[i];
             let mut blended = own + (grid - own) * alpha;
             let mut pushed = false;
             // The density at the node is a weighted mean of its corners' (weights summing to
             // one within rounding, which the margin covers): where none comes near the target,
             // it does not exceed it, and the gradient is not needed.
-            if self.repulsion && densest > self.near_target {
-                let d = offsets.map(|o| self.points[base + o][3]);
-                let (rho, gradient) = density_and_gradient(&d, &ws, &frac, self.inv_spacing);
+            if self.repulsion && densest[3].max(densest[7]) > self.near_target {
+                let d = corner_offsets(dy, dz).map(|o| self.points[base + o][3]);
+                let (rho, gradient) = density_and_gradient(&d, &frac, self.locator.inv_spacing);
                 let norm = gradient.norm();
                 if rho > self.target && norm > 0.0 {
                     // Decompress only: out of the over-dense place, never into a thin one.
@@ -552,12 +596,54 @@ impl Default for PartSums {
     }
 }
 
-/// The trilinear weights of the cell's eight corners, in [`corner_offsets`] order.
+/// A cell's trilinear weights as the splat and the sampling take them: a pair of corners
+/// along x at a time, each pair a row of the cell.
+struct CellWeights {
+    /// The weights along x, of the low corner in lanes 0-3 and the high one in lanes 4-7.
+    x: f32x8,
+    /// The rows' weights along y and z: rows at (y, z), (y + 1, z), (y, z + 1), (y + 1, z + 1).
+    yz: [f32x8; 4],
+}
+
+impl CellWeights {
+    #[inline]
+    fn new(f: &[Real; 3]) -> Self {
+        let [x, y, z] = *f;
+        let (a, b, c) = (1.0 - x, 1.0 - y, 1.0 - z);
+        Self {
+            x: f32x8::new([a, a, a, a, x, x, x, x]),
+            yz: [b * c, y * c, b * z, y * z].map(f32x8::splat),
+        }
+    }
+}
+
+/// Two neighbouring lattice points as lanes.
+#[inline(always)]
+fn load_pair(pair: &[[Real; 4]]) -> f32x8 {
+    let (a, b) = (pair[0], pair[1]);
+    f32x8::new([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+}
+
+#[inline(always)]
+fn store_pair(pair: &mut [[Real; 4]], lanes: f32x8) {
+    let x = lanes.to_array();
+    pair[0] = [x[0], x[1], x[2], x[3]];
+    pair[1] = [x[4], x[5], x[6], x[7]];
+}
+
+/// Index offsets of a cell's eight corners from its lowest one.
 #[inline]
-fn weights(f: &[Real; 3]) -> [Real; 8] {
-    let [x, y, z] = *f;
+fn corner_offsets(dy: usize, dz: usize) -> [usize; 8] {
+    [0, 1, dy, dy + 1, dz, dz + 1, dz + dy, dz + dy + 1]
+}
+
+/// The trilinear density at a node's place and its gradient (kg/m⁴), from the densities at its
+/// cell's corners ([`corner_offsets`] order) and its place in the cell.
+#[inline]
+fn density_and_gradient(d: &[Real; 8], frac: &[Real; 3], inv_spacing: Real) -> (Real, Vector) {
+    let [x, y, z] = *frac;
     let (a, b, c) = (1.0 - x, 1.0 - y, 1.0 - z);
-    [
+    let weights = [
         a * b * c,
         x * b * c,
         a * y * c,
@@ -566,26 +652,7 @@ fn weights(f: &[Real; 3]) -> [Real; 8] {
         x * b * z,
         a * y * z,
         x * y * z,
-    ]
-}
-
-/// Index offsets of a cell's eight corners from its lowest one.
-#[inline]
-fn corner_offsets(dims: [usize; 3]) -> [usize; 8] {
-    let (dy, dz) = (dims[0], dims[0] * dims[1]);
-    [0, 1, dy, dy + 1, dz, dz + 1, dz + dy, dz + dy + 1]
-}
-
-/// The trilinear density at a node's place and its gradient (kg/m⁴), from the densities at its
-/// cell's corners and their weights.
-#[inline]
-fn density_and_gradient(
-    d: &[Real; 8],
-    weights: &[Real; 8],
-    frac: &[Real; 3],
-    inv_spacing: Real,
-) -> (Real, Vector) {
-    let [x, y, z] = *frac;
+    ];
     let rho = weights.iter().zip(d).map(|(w, d)| w * d).sum::<Real>();
     // Differences along each axis, bilinear in the other two.
     let lerp = |a: Real, b: Real, t: Real| a + (b - a) * t;
