@@ -31,7 +31,10 @@ pub struct BodyConstraint {
     body_nodes: Vec<BodyNode>,
     /// Per skeleton, the first node a pass moved (`u32::MAX`: none).
     first_moved: Vec<u32>,
-    body_hits: Vec<Option<(Real, Vector)>>,
+    /// Per node of a pass: what its test found, and the clearance its query found (none
+    /// where its clearance kept it out of reach without one, or it was not asked by the
+    /// clearances' method).
+    body_hits: Vec<(Option<(Real, Vector)>, Option<Clearance>)>,
     /// The sweeps: the chains of this pass and the next (`[skeleton, first node asked]`, by
     /// skeleton), per skeleton its radius, the first node each chain moved, the chains in
     /// contact on the first pass (`[skeleton, first node in contact]`, global index), and per
@@ -209,6 +212,17 @@ impl BodyConstraint {
         self.body_nodes.clear();
         self.moved_skeletons.clear();
         let mut contacts = 0;
+        let key = (body.body.identity(), method, state.node_count());
+        if self.clearance_key != Some(key) {
+            // Found on another body (or this one changed), by another method, or for other
+            // nodes: none holds here.
+            for h in &mut self.sweep_hits {
+                h.clearance = Clearance::default();
+            }
+            self.clearance_key = Some(key);
+        }
+        self.sweep_hits
+            .resize(state.node_count(), SweepHit::default());
         // The deepest node centre among the nodes the sweeps left (they no longer move).
         let mut swept_depth: Real = 0.0;
         let first_pass = if in_ramp {
@@ -243,17 +257,6 @@ impl BodyConstraint {
                 let r = shared.nodes(SkeletonId(n));
                 shared.radius().get(r.start).copied().unwrap_or(0.0)
             }));
-            let key = (body.body.identity(), method, state.node_count());
-            if self.clearance_key != Some(key) {
-                // Found on another body (or this one changed), by another method, or for
-                // other nodes: none holds here.
-                for h in &mut self.sweep_hits {
-                    h.clearance = Clearance::default();
-                }
-                self.clearance_key = Some(key);
-            }
-            self.sweep_hits
-                .resize(state.node_count(), SweepHit::default());
             if !self.clearance_off {
                 // Each chain starts at its first node that its clearance does not keep out of
                 // reach, and a chain with none is not swept: the sweep would record those nodes
@@ -438,13 +441,33 @@ impl BodyConstraint {
             } else {
                 method
             };
+            // As in the sweeps, a node its clearance keeps out of reach is not queried (the
+            // ramp's passes test every node, most of them far from the body).
+            let clearances = !self.clearance_off && method == settings.method;
+            let sweep_hits = &self.sweep_hits;
             self.body_nodes
                 .par_iter()
                 .map(|bn| {
-                    body.distance_within(method, &positions[bn.node as usize], bn.radius)
-                        .filter(|(d, _)| *d < bn.radius)
+                    let at = &positions[bn.node as usize];
+                    if !clearances {
+                        let hit = body.distance_within(method, at, bn.radius);
+                        return (hit.filter(|(d, _)| *d < bn.radius), None);
+                    }
+                    let local = body.local(at);
+                    let clear = sweep_hits[bn.node as usize].clearance;
+                    if clear.bound - (local - clear.at).norm() >= bn.radius {
+                        return (None, None);
+                    }
+                    let (hit, bound) = body.distance_within_clearance(method, &local, bn.radius);
+                    let clearance = Clearance { at: local, bound };
+                    (hit.filter(|(d, _)| *d < bn.radius), Some(clearance))
                 })
                 .collect_into_vec(&mut self.body_hits);
+            for (bn, (_, clearance)) in self.body_nodes.iter().zip(&self.body_hits) {
+                if let Some(clearance) = clearance {
+                    self.sweep_hits[bn.node as usize].clearance = *clearance;
+                }
+            }
             self.corrections.clear();
             deepest = 0.0;
             // The deepest node centre beyond what the ramp allows it: the passes stop when it is
@@ -454,7 +477,7 @@ impl BodyConstraint {
             let mut escapes = 0;
             self.first_moved.clear();
             self.first_moved.resize(state.skeleton_count(), u32::MAX);
-            for (bn, hit) in self.body_nodes.iter().zip(&self.body_hits) {
+            for (bn, (hit, _)) in self.body_nodes.iter().zip(&self.body_hits) {
                 let node = bn.node as usize;
                 if in_ramp && pass == 0 && node < self.allowance.len() {
                     let reach = hit.map_or(0.0, |(d, _)| (bn.radius - d).max(0.0));
@@ -537,7 +560,7 @@ impl BodyConstraint {
             let (first_moved, mut hits) = (&self.first_moved, self.body_hits.iter());
             self.body_nodes.retain(|bn| {
                 let moved = bn.node >= first_moved[bn.skeleton as usize];
-                if let (false, Some(Some((d, _)))) = (moved, hits.next()) {
+                if let (false, Some((Some((d, _)), _))) = (moved, hits.next()) {
                     settled = settled.max(-d);
                 }
                 moved
@@ -1016,6 +1039,7 @@ mod tests {
             ),
             seed in any::<u64>(),
             field in any::<bool>(),
+            ramp in 0u32..4,
         ) {
             static BODY: std::sync::OnceLock<MeshBody> = std::sync::OnceLock::new();
             let body = BODY.get_or_init(|| torus(Point::new(0.0, -0.1, 0.0)));
@@ -1025,8 +1049,9 @@ mod tests {
             let front: Vec<u32> = (0..roots.len() as u32).collect();
             let mut cached = BodyConstraint::new();
             let mut plain = BodyConstraint { clearance_off: true, ..BodyConstraint::new() };
+            // With a ramp, its first steps test every node in passes, not in sweeps.
             let settings = CollisionSettings {
-                depenetration_steps: 0,
+                depenetration_steps: ramp,
                 method: if field { CollisionMethod::Field } else { CollisionMethod::Bvh },
                 ..CollisionSettings::default()
             };
