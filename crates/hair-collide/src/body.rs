@@ -34,7 +34,7 @@ pub struct BodyConstraint {
     /// Per node of a pass: what its test found, and the clearance its query found (none
     /// where its clearance kept it out of reach without one, or it was not asked by the
     /// clearances' method).
-    body_hits: Vec<(Option<(Real, Vector)>, Option<Clearance>)>,
+    body_hits: Vec<PassTest>,
     /// The sweeps: the chains of this pass and the next (`[skeleton, first node asked]`, by
     /// skeleton), per skeleton its radius, the first node each chain moved, the chains in
     /// contact on the first pass (`[skeleton, first node in contact]`, global index), and per
@@ -765,6 +765,10 @@ fn sphere_direction(k: usize) -> Vector {
 
 /// Directions [`turn_out`] tries between a segment and the body's normal at its parent node.
 const TURN_OUT_STEPS: usize = 8;
+
+/// What a pass's test of a node found: the body within its reach (depth and normal), and the
+/// clearance its query found.
+type PassTest = (Option<(Real, Vector)>, Option<Clearance>);
 
 /// What the hard constraint's sweeps last found at a node.
 #[derive(Clone, Copy, Debug, Default)]
