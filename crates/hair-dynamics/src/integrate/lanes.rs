@@ -196,6 +196,33 @@ struct LaneScratch {
     tension: Vec<L>,
     joints: Vec<JointSweep>,
     out: Vec<NodeOut>,
+    /// The group's per-node inputs in lane layout (`gather`, `gather3`).
+    nodes: Vec<NodeIn>,
+}
+
+/// A node's inputs of the group's eight strands, lane by lane: gathered from the state's
+/// strand-by-strand layout eight nodes at a time by transposes, not node by node (one strided
+/// load per lane and value).
+#[derive(Clone, Copy, Default)]
+struct NodeIn {
+    theta: L,
+    phi: L,
+    omega_theta: L,
+    omega_phi: L,
+    length: L,
+    mass: L,
+    wetness: L,
+    damping: L,
+    k_theta: L,
+    k_phi: L,
+    rest_theta: L,
+    rest_phi: L,
+    k_stretch: L,
+    rest_length: L,
+    rest_point: V3,
+    force: V3,
+    /// BDF2 only: the previous step's angles and rates.
+    prev: [L; 4],
 }
 
 /// A node's state at the end of the step, held until every lane's finiteness is known.
@@ -217,6 +244,7 @@ impl LaneScratch {
             self.tension.resize(n, L::ZERO);
             self.joints.resize(n, JointSweep::default());
             self.out.resize(n, NodeOut::default());
+            self.nodes.resize(n, NodeIn::default());
         }
     }
 }
@@ -290,10 +318,18 @@ impl<'a, T: Copy> Strands<'a, T> {
         let lanes: [&'a [T]; LANES] = std::array::from_fn(|l| &field[base[l]..base[l] + n]);
         #[cfg(target_arch = "x86_64")]
         for strand in &lanes {
-            // One element a 64-byte line, and the last, for a range that straddles a line.
-            let per_line = (64 / std::mem::size_of::<T>()).max(1);
-            for x in strand.iter().step_by(per_line).chain(strand.last()) {
-                prefetch(x);
+            // One address a 64-byte line, and the last element, for a range that straddles a
+            // line. Plain address arithmetic: an iterator chain here cost more instructions
+            // than the rest of the group's set-up (docs/perf/dynamics.md).
+            let start = strand.as_ptr().cast::<u8>();
+            let bytes = std::mem::size_of_val(*strand);
+            let mut offset = 0;
+            while offset < bytes {
+                prefetch(start.wrapping_add(offset));
+                offset += 64;
+            }
+            if let Some(last) = strand.last() {
+                prefetch(std::ptr::from_ref(last).cast());
             }
         }
         Self(lanes)
@@ -321,16 +357,157 @@ impl Strands<'_, Vector> {
     }
 }
 
+// The gathers and scatters below use loops of constant trip count, not `array::from_fn` or
+// `map`: in a function as large as `step_group_in` the closures of those were at times left
+// out of line, at several times the instructions (docs/perf/dynamics.md).
+
+/// Eight nodes of eight strands' `f32` field from `start`: a transposed 8 x 8 block, row `k`
+/// node `start + k` of every lane.
+#[inline(always)]
+fn block(field: &Strands<'_, f32>, start: usize) -> [L; 8] {
+    let mut rows = [L::ZERO; 8];
+    for l in 0..LANES {
+        let row: [f32; 8] = field.0[l][start..start + 8]
+            .try_into()
+            .expect("eight nodes");
+        rows[l] = L::from(row);
+    }
+    L::transpose(rows)
+}
+
+/// The start of each block of eight nodes that covers `n >= 8` nodes: every eighth node, the
+/// last block moved back to end at `n` (it overlaps the one before, which is rewritten with the
+/// same values).
+#[inline(always)]
+fn blocks(n: usize) -> impl Iterator<Item = usize> {
+    (0..n.div_ceil(8)).map(move |b| (8 * b).min(n - 8))
+}
+
+/// Eight 3-vectors' 24 coordinates in a row, cut in three rows of eight.
+#[inline(always)]
+fn thirds<T: Copy>(v: &[[T; 3]; 8]) -> [[T; 8]; 3] {
+    let flat = v.as_flattened();
+    let row = |o: usize| -> [T; 8] { flat[o..o + 8].try_into().expect("eight coordinates") };
+    [row(0), row(8), row(16)]
+}
+
+/// `field` of the group's `n` nodes into `set(node, lanes)`.
+#[inline(always)]
+fn gather(nodes: &mut [NodeIn], field: &Strands<'_, f32>, set: impl Fn(&mut NodeIn, L)) {
+    let n = nodes.len();
+    if n < 8 {
+        for (i, node) in nodes.iter_mut().enumerate() {
+            set(node, field.at(i));
+        }
+        return;
+    }
+    for start in blocks(n) {
+        let rows = block(field, start);
+        for k in 0..8 {
+            set(&mut nodes[start + k], rows[k]);
+        }
+    }
+}
+
+/// A 3-vector field of the group's `n` nodes into `set(node, lanes)`: as [`gather`] on the
+/// strands' coordinates read as one run of `3 n` floats, three 8 x 8 blocks for eight nodes.
+#[inline(always)]
+fn gather3(nodes: &mut [NodeIn], field: &Strands<'_, Vector>, set: impl Fn(&mut NodeIn, V3)) {
+    let n = nodes.len();
+    if n < 8 {
+        for (i, node) in nodes.iter_mut().enumerate() {
+            set(node, field.at3(i));
+        }
+        return;
+    }
+    for start in blocks(n) {
+        let mut rows = [[L::ZERO; 8]; 3];
+        for l in 0..LANES {
+            let v = &field.0[l][start..start + 8];
+            let mut xyz = [[0.0; 3]; 8];
+            for k in 0..8 {
+                xyz[k] = [v[k].x, v[k].y, v[k].z];
+            }
+            let t = thirds(&xyz);
+            for third in 0..3 {
+                rows[third][l] = L::from(t[third]);
+            }
+        }
+        let rows = [
+            L::transpose(rows[0]),
+            L::transpose(rows[1]),
+            L::transpose(rows[2]),
+        ];
+        let flat = rows.as_flattened();
+        for k in 0..8 {
+            let v = V3 {
+                x: flat[3 * k],
+                y: flat[3 * k + 1],
+                z: flat[3 * k + 2],
+            };
+            set(&mut nodes[start + k], v);
+        }
+    }
+}
+
+/// Eight nodes' lanes `value(k)` (`k` in `0..8`) into `field[at[l]..at[l] + 8]` of every lane
+/// `l` that is `done`: [`block`]'s transpose the other way.
+#[inline(always)]
+fn scatter(
+    done: &[bool; LANES],
+    at: &[usize; LANES],
+    field: &mut [f32],
+    value: impl Fn(usize) -> L,
+) {
+    let mut rows = [L::ZERO; 8];
+    for k in 0..8 {
+        rows[k] = value(k);
+    }
+    let rows = L::transpose(rows);
+    for l in 0..LANES {
+        if done[l] {
+            field[at[l]..at[l] + 8].copy_from_slice(rows[l].as_array());
+        }
+    }
+}
+
+/// Eight nodes' 3-vectors `value(k)` to `store(l, xyz)` of every lane `l` that is `done`, the
+/// coordinates of the eight in a row: as [`scatter`] on the 24 coordinates, three 8 x 8 blocks.
+#[inline(always)]
+fn scatter3(
+    done: &[bool; LANES],
+    mut store: impl FnMut(usize, &[f32; 24]),
+    value: impl Fn(usize) -> V3,
+) {
+    let mut xyz = [[L::ZERO; 3]; 8];
+    for k in 0..8 {
+        let v = value(k);
+        xyz[k] = [v.x, v.y, v.z];
+    }
+    let t = thirds(&xyz);
+    let rows = [L::transpose(t[0]), L::transpose(t[1]), L::transpose(t[2])];
+    for l in 0..LANES {
+        if done[l] {
+            let mut flat = [0.0; 24];
+            for third in 0..3 {
+                flat[8 * third..8 * third + 8].copy_from_slice(rows[third][l].as_array());
+            }
+            store(l, &flat);
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 #[expect(
     unsafe_code,
-    reason = "a prefetch hint reads nothing and cannot fault; the address is a live reference"
+    reason = "a prefetch hint reads nothing and cannot fault; the addresses are within live slices"
 )]
-fn prefetch<T>(x: &T) {
+fn prefetch(x: *const u8) {
     use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-    // SAFETY: `_mm_prefetch` only hints the cache; SSE is part of every x86-64 target.
-    unsafe { _mm_prefetch::<_MM_HINT_T0>(std::ptr::from_ref(x).cast()) };
+    // SAFETY: `_mm_prefetch` only hints the cache and never faults, whatever the address; SSE is
+    // part of every x86-64 target.
+    unsafe { _mm_prefetch::<_MM_HINT_T0>(x.cast()) };
 }
 
 /// The air's velocity relative to the head, in the head's frame, for eight points at once: the
@@ -520,6 +697,20 @@ fn step_group_in(
     let has_fields = !sh.env.env.fields.is_empty();
     let drag = L::splat(sh.env.env.wind.drag);
 
+    // What pass 1 reads, in lane layout (the other fields later: their prefetches then have
+    // pass 1's time to arrive).
+    let nodes = &mut ls.nodes[..n];
+    gather(nodes, &theta, |node, v| node.theta = v);
+    gather(nodes, &phi, |node, v| node.phi = v);
+    gather(nodes, &omega_theta, |node, v| node.omega_theta = v);
+    gather(nodes, &omega_phi, |node, v| node.omega_phi = v);
+    gather(nodes, &length, |node, v| node.length = v);
+    if let Some(previous) = &previous {
+        for (t, field) in previous.iter().enumerate() {
+            gather(nodes, field, |node, v| node.prev[t] = v);
+        }
+    }
+
     // Pass 1, root to tip: kinematics and the prefix sums of A w.
     let mut rot = root_rot;
     let mut omega = V3::default();
@@ -527,25 +718,26 @@ fn step_group_in(
     ls.pos[0] = root_pos;
     ls.vel[0] = V3::default();
     for i in 1..n {
-        let (x, y) = (theta.at(i), phi.at(i));
-        let (wx, wy) = (omega_theta.at(i), omega_phi.at(i));
+        let node = &ls.nodes[i];
+        let (x, y) = (node.theta, node.phi);
+        let (wx, wy) = (node.omega_theta, node.omega_phi);
         // BDF2 (`integrate::bdf2`): the coupled system with `h -> b`, the rates on the right
         // `w + a / b`, and the torque `tau + I c / b` (pass 2).
-        let (shift, w_prev, w_rhs) = match &previous {
-            Some([pq0, pq1, pw0, pw1]) => {
-                let shift = [(x - pq0.at(i)) / third, (y - pq1.at(i)) / third]
-                    .map(|a| has_history.select(a, L::ZERO));
-                let w_prev = [pw0.at(i), pw1.at(i)];
-                (shift, w_prev, [wx + shift[0] / h, wy + shift[1] / h])
-            }
-            None => ([L::ZERO; 2], [L::ZERO; 2], [wx, wy]),
+        let (shift, w_prev, w_rhs) = if bdf2 {
+            let [pq0, pq1, pw0, pw1] = node.prev;
+            let shift =
+                [(x - pq0) / third, (y - pq1) / third].map(|a| has_history.select(a, L::ZERO));
+            let w_prev = [pw0, pw1];
+            (shift, w_prev, [wx + shift[0] / h, wy + shift[1] / h])
+        } else {
+            ([L::ZERO; 2], [L::ZERO; 2], [wx, wy])
         };
         let bend = LaneBend::new(x, y);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
         rot = rot.mul_m(&bend.rotation);
         let t = rot.column(2);
-        let len = length.at(i);
+        let len = node.length;
         let seg = t * len;
         let joint = &mut ls.joints[i - 1];
         (joint.q, joint.w, joint.len) = ([x, y], [wx, wy], len);
@@ -565,6 +757,21 @@ fn step_group_in(
         }
     }
 
+    let nodes = &mut ls.nodes[..n];
+    gather(nodes, &mass, |node, v| node.mass = v);
+    gather(nodes, &wetness, |node, v| node.wetness = v);
+    gather(nodes, &damping, |node, v| node.damping = v);
+    gather(nodes, &k_theta, |node, v| node.k_theta = v);
+    gather(nodes, &k_phi, |node, v| node.k_phi = v);
+    gather(nodes, &rest_theta, |node, v| node.rest_theta = v);
+    gather(nodes, &rest_phi, |node, v| node.rest_phi = v);
+    gather(nodes, &k_stretch, |node, v| node.k_stretch = v);
+    gather(nodes, &rest_length, |node, v| node.rest_length = v);
+    gather3(nodes, &rest_points, |node, v| node.rest_point = v);
+    if let Some(force) = &force {
+        gather3(nodes, force, |node, v| node.force = v);
+    }
+
     // Pass 2, tip to root: torques and sums, generators, elimination.
     let mut failed = L::ZERO.simd_ne(L::ZERO); // all false
     let floor = L::splat(1e-2);
@@ -577,7 +784,7 @@ fn step_group_in(
     );
     let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
     let (mut gain_m, mut gain_r, mut suffix_w) = (M3::default(), V3::default(), V3::default());
-    let mut rest_next = rest_points.at3(n - 1);
+    let mut rest_next = ls.nodes[n - 1].rest_point;
     for i in (1..n).rev() {
         let j = i - 1;
         let (q, w, len) = {
@@ -586,7 +793,8 @@ fn step_group_in(
         };
         let pivot = ls.pos[i - 1];
         let xi = ls.pos[i];
-        let mi = mass.at(i) + wetness.at(i);
+        let node = &ls.nodes[i];
+        let mi = node.mass + node.wetness;
         let mut fi = gravity * mi;
         if let Some(air) = &sh.lane_air {
             // Drag on the air's velocity across the segment, as `strand::forces` has it.
@@ -599,12 +807,12 @@ fn step_group_in(
             let m: [f32; LANES] = mi.to_array();
             fi = fi + per_lane(xi, |l, x| sh.env.field_force(&x, m[l]));
         }
-        if let Some(force) = &force {
-            fi = fi + force.at3(i);
+        if has_external {
+            fi = fi + node.force;
         }
         let seg = xi - pivot;
         let rp = rest_next;
-        let rc = rest_points.at3(i - 1);
+        let rc = ls.nodes[i - 1].rest_point;
         rest_next = rc;
         s_m += mi;
         s_mp = s_mp + rp * mi;
@@ -629,9 +837,9 @@ fn step_group_in(
         }
         let inertia = inertia.max(floor * mi * len * len);
         ls.tension[i] = load.dot(ls.tangent[i]);
-        let damping = damping.at(i);
-        let k = [k_theta.at(i), k_phi.at(i)];
-        let rest = [rest_theta.at(i), rest_phi.at(i)];
+        let damping = node.damping;
+        let k = [node.k_theta, node.k_phi];
+        let rest = [node.rest_theta, node.rest_phi];
         let joint = &mut ls.joints[j];
         let a = joint.a;
         // The Jacobian's generators (`strand::load_column_generator`, `load_row_generator`).
@@ -758,8 +966,8 @@ fn step_group_in(
             [joint.q[0] + h * w[0], joint.q[1] + h * w[1]]
         };
         // Quasi-static stretch springs: each segment takes the length its tension asks for.
-        let k_stretch = k_stretch.at(i);
-        let stretched = rest_length.at(i) * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
+        let k_stretch = ls.nodes[i].k_stretch;
+        let stretched = ls.nodes[i].rest_length * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
         let len = k_stretch.simd_gt(L::ZERO).select(stretched, joint.len);
         bad |= !(q[0].is_finite() & q[1].is_finite() & w[0].is_finite() & w[1].is_finite());
         bad |= !len.is_finite();
@@ -787,12 +995,10 @@ fn step_group_in(
             *o = LaneOutcome::Redo;
         }
     }
-    // Lane by lane back to the run: only the strands that succeeded, each written from root to
-    // tip (a few streams at a time, not eight strands' worth at once).
-    for l in 0..members_len {
-        if outcome[l] != LaneOutcome::Done {
-            continue;
-        }
+    // Back to the run: only the strands that succeeded.
+    let done: [bool; LANES] =
+        std::array::from_fn(|l| l < members_len && outcome[l] == LaneOutcome::Done);
+    for l in (0..LANES).filter(|&l| done[l]) {
         let base = in_run[l];
         run.positions[base] = run.roots[local[l]].position;
         run.velocities[base] = Vector::zeros();
@@ -807,21 +1013,62 @@ fn step_group_in(
             let rs = &mut run.roots[local[l]];
             (rs.prev_position, rs.prev_velocity) = (rs.position, rs.velocity);
         }
-        for i in 1..n {
-            let out = &ls.out[i];
-            let lane = |v: &L| v.as_array()[l];
-            let at = base + i;
-            run.theta[at] = lane(&out.q[0]);
-            run.phi[at] = lane(&out.q[1]);
-            run.omega_theta[at] = lane(&out.w[0]);
-            run.omega_phi[at] = lane(&out.w[1]);
-            run.length[at] = lane(&out.len);
-            run.positions[at] = Point::new(lane(&out.pos.x), lane(&out.pos.y), lane(&out.pos.z));
-            run.velocities[at] = Vector::new(lane(&out.vel.x), lane(&out.vel.y), lane(&out.vel.z));
+    }
+    if n > 8 {
+        // Eight nodes at a time, transposed back to strand by strand: each lane's eight values
+        // of a field are one store.
+        for start in blocks(n - 1).map(|b| b + 1) {
+            let out = &ls.out[start..start + 8];
+            let at: [usize; LANES] = std::array::from_fn(|l| in_run[l] + start);
+            scatter(&done, &at, &mut *run.theta, |k| out[k].q[0]);
+            scatter(&done, &at, &mut *run.phi, |k| out[k].q[1]);
+            scatter(&done, &at, &mut *run.omega_theta, |k| out[k].w[0]);
+            scatter(&done, &at, &mut *run.omega_phi, |k| out[k].w[1]);
+            scatter(&done, &at, &mut *run.length, |k| out[k].len);
+            scatter3(
+                &done,
+                |l, flat| {
+                    let dst = &mut run.positions[at[l]..at[l] + 8];
+                    for (p, c) in dst.iter_mut().zip(flat.chunks_exact(3)) {
+                        *p = Point::new(c[0], c[1], c[2]);
+                    }
+                },
+                |k| out[k].pos,
+            );
+            scatter3(
+                &done,
+                |l, flat| {
+                    let dst = &mut run.velocities[at[l]..at[l] + 8];
+                    for (v, c) in dst.iter_mut().zip(flat.chunks_exact(3)) {
+                        *v = Vector::new(c[0], c[1], c[2]);
+                    }
+                },
+                |k| out[k].vel,
+            );
         }
+    } else {
+        for l in (0..LANES).filter(|&l| done[l]) {
+            let base = in_run[l];
+            for i in 1..n {
+                let out = &ls.out[i];
+                let lane = |v: &L| v.as_array()[l];
+                let at = base + i;
+                run.theta[at] = lane(&out.q[0]);
+                run.phi[at] = lane(&out.q[1]);
+                run.omega_theta[at] = lane(&out.w[0]);
+                run.omega_phi[at] = lane(&out.w[1]);
+                run.length[at] = lane(&out.len);
+                run.positions[at] =
+                    Point::new(lane(&out.pos.x), lane(&out.pos.y), lane(&out.pos.z));
+                run.velocities[at] =
+                    Vector::new(lane(&out.vel.x), lane(&out.vel.y), lane(&out.vel.z));
+            }
+        }
+    }
+    for l in (0..LANES).filter(|&l| done[l]) {
         run.roots[local[l]].history = if bdf2 {
             let rs = &run.roots[local[l]];
-            bdf2::history_tag_of(m2, coordinates(run, base, n), rs, settings.dt)
+            bdf2::history_tag_of(m2, coordinates(run, in_run[l], n), rs, settings.dt)
         } else {
             0
         };
