@@ -20,11 +20,11 @@
 //!    accumulates anyway);
 //! 2. tip to root: forces, torques, inertia and the Jacobian's suffix sums, and in the same
 //!    iteration the joint's generators and its step of the elimination (no sums stored);
-//! 3. root to tip: the unknowns;
+//! 3. root to tip: the unknowns, and with them the new state and the end-of-step positions and
+//!    velocities (the kinematics again);
 //! 4. tip to root: the residual check, on values pass 2 and 3 kept.
 //!
-//! and a last root-to-tip pass that updates the state and writes the end-of-step positions and
-//! velocities. A lane whose check fails, whose state goes non-finite or whose BDF2 error
+//! A lane whose check fails, whose state goes non-finite or whose BDF2 error
 //! estimate is over its bound is left untouched and redone by the scalar step (the check's
 //! failures counted as dense fallbacks).
 
@@ -171,10 +171,12 @@ struct JointSweep {
     /// Diagonal and right-hand side of the joint's two rows.
     d: [L; 2],
     b: [L; 2],
-    /// Prefix sum `sum_{k<j} A_k w_k` (pass 1), then `sum_{k<j} A_k x_k` (pass 3).
+    /// Prefix sum `sum_{k<j} A_k w_k` (pass 1).
     prefix: V3,
     /// The unknowns.
     x: [L; 2],
+    /// The residual check's terms `h^2 W_j^T sum_{k<j} A_k x_k` (pass 3).
+    left: [L; 2],
     /// The joint's angles, rates and segment length at the start of the step, gathered once.
     q: [L; 2],
     w: [L; 2],
@@ -316,21 +318,8 @@ impl<'a, T: Copy> Strands<'a, T> {
     #[inline(always)]
     fn new(field: &'a [T], base: &[usize; LANES], n: usize) -> Self {
         let lanes: [&'a [T]; LANES] = std::array::from_fn(|l| &field[base[l]..base[l] + n]);
-        #[cfg(target_arch = "x86_64")]
         for strand in &lanes {
-            // One address a 64-byte line, and the last element, for a range that straddles a
-            // line. Plain address arithmetic: an iterator chain here cost more instructions
-            // than the rest of the group's set-up (docs/perf/dynamics.md).
-            let start = strand.as_ptr().cast::<u8>();
-            let bytes = std::mem::size_of_val(*strand);
-            let mut offset = 0;
-            while offset < bytes {
-                prefetch(start.wrapping_add(offset));
-                offset += 64;
-            }
-            if let Some(last) = strand.last() {
-                prefetch(std::ptr::from_ref(last).cast());
-            }
+            prefetch_slice(strand);
         }
         Self(lanes)
     }
@@ -497,6 +486,29 @@ fn scatter3(
     }
 }
 
+/// Asks for every 64-byte line of `items` (see [`Strands::new`]): one address a line, and the
+/// last element, for a range that straddles one line more. Plain address arithmetic: an
+/// iterator chain here cost more instructions than the rest of the group's set-up
+/// (docs/perf/dynamics.md).
+#[inline(always)]
+fn prefetch_slice<T>(items: &[T]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let start = items.as_ptr().cast::<u8>();
+        let bytes = std::mem::size_of_val(items);
+        let mut offset = 0;
+        while offset < bytes {
+            prefetch(start.wrapping_add(offset));
+            offset += 64;
+        }
+        if let Some(last) = items.last() {
+            prefetch(std::ptr::from_ref(last).cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = items;
+}
+
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 #[expect(
@@ -571,6 +583,26 @@ impl LaneAir {
         let frame = self.linear_velocity + self.angular_velocity.cross(turned);
         self.turn.tr_mul_v(wind - frame)
     }
+}
+
+/// Zero where `v` is finite, NaN where it is infinite or NaN. A sum of these is zero exactly
+/// when every term's value is finite, so [`not_finite`] of the sum is an `is_finite` test of
+/// them all: one float subtraction and one addition a value where `f32x8::is_finite` takes
+/// integer instructions, which AVX without AVX2 runs as two halves each
+/// (docs/perf/dynamics.md).
+#[inline(always)]
+#[expect(
+    clippy::eq_op,
+    reason = "v - v is the test: NaN exactly when v is not finite"
+)]
+fn nan_unless_finite(v: L) -> L {
+    v - v
+}
+
+/// The lanes where `nan_if_not` (a sum of [`nan_unless_finite`] terms) is not zero.
+#[inline(always)]
+fn not_finite(nan_if_not: L) -> L {
+    !nan_if_not.simd_eq(L::ZERO)
 }
 
 /// A scalar function of a point, evaluated lane by lane (the environment's force fields).
@@ -772,8 +804,9 @@ fn step_group_in(
         gather3(nodes, force, |node, v| node.force = v);
     }
 
-    // Pass 2, tip to root: torques and sums, generators, elimination.
-    let mut failed = L::ZERO.simd_ne(L::ZERO); // all false
+    // Pass 2, tip to root: torques and sums, generators (the elimination in pass 2b: each loop
+    // then keeps fewer sums live than the sixteen registers, where one loop spilled most of them;
+    // docs/perf/dynamics.md).
     let floor = L::splat(1e-2);
     let (mut s_f, mut t_vec, mut s_m, mut s_mp, mut s_mp2) = (
         V3::default(),
@@ -783,7 +816,7 @@ fn step_group_in(
         L::ZERO,
     );
     let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
-    let (mut gain_m, mut gain_r, mut suffix_w) = (M3::default(), V3::default(), V3::default());
+    let mut suffix_w = V3::default();
     let mut rest_next = ls.nodes[n - 1].rest_point;
     for i in (1..n).rev() {
         let j = i - 1;
@@ -847,8 +880,6 @@ fn step_group_in(
         let v = a.map(|at| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot);
         let wg = a.map(|at| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque));
         if !chain {
-            gain_m = M3::default();
-            gain_r = V3::default();
             suffix_w = V3::default();
         }
         let w_rhs = if bdf2 { joint.w_rhs } else { w };
@@ -865,6 +896,21 @@ fn step_group_in(
             d[t] = inertia + h * damping + h2 * k[t];
             b[t] = h * tau + h2 * (jw - k[t] * w_rhs[t]);
         }
+        joint.v = v;
+        joint.wg = wg;
+        joint.d = d;
+        joint.b = b;
+    }
+
+    // Pass 2b, tip to root: the elimination.
+    let mut failed = L::ZERO.simd_ne(L::ZERO); // all false
+    let (mut gain_m, mut gain_r) = (M3::default(), V3::default());
+    for joint in ls.joints[..n - 1].iter_mut().rev() {
+        if !chain {
+            gain_m = M3::default();
+            gain_r = V3::default();
+        }
+        let (a, v, wg, d, b) = (joint.a, joint.v, joint.wg, joint.d, joint.b);
         // suf_j = G x_j + M pre_j + r with G = M A_j + V_j; the joint's 2 x 2 block.
         let g = [gain_m.mul_v(a[0]) + v[0], gain_m.mul_v(a[1]) + v[1]];
         let b00 = d[0] - h2 * a[0].dot(g[0]);
@@ -872,7 +918,7 @@ fn step_group_in(
         let b10 = -h2 * a[1].dot(g[0]);
         let b11 = d[1] - h2 * a[1].dot(g[1]);
         let det = b00 * b11 - b01 * b10;
-        failed |= det.simd_eq(L::ZERO) | !det.is_finite();
+        failed |= det.simd_eq(L::ZERO) | not_finite(nan_unless_finite(det));
         let inv_det = L::ONE / det;
         let inv = [
             [b11 * inv_det, -b01 * inv_det],
@@ -888,69 +934,33 @@ fn step_group_in(
         gain_m.add_outer(g[0], gain[0]);
         gain_m.add_outer(g[1], gain[1]);
         gain_r = gain_r + g[0] * offset[0] + g[1] * offset[1];
-        joint.v = v;
-        joint.wg = wg;
         joint.gain = gain;
         joint.offset = offset;
-        joint.d = d;
-        joint.b = b;
     }
 
-    // Pass 3, root to tip: the unknowns, and the prefix sums of A x for the check.
+    // Pass 3, root to tip: the unknowns (`x_j = E_j pre_j + e_j` on the prefix sums of `A x`),
+    // the new state and the end-of-step positions and velocities; and the check's terms that
+    // read the prefix sums, while they are at hand.
     let mut prefix = V3::default();
-    for joint in &mut ls.joints[..n - 1] {
+    let mut rot = root_rot;
+    let mut omega = V3::default();
+    let mut pos = root_pos;
+    let mut vel = V3::default();
+    // Zero, or NaN in a lane with a value of its new state that is not finite.
+    let mut nan_if_bad = L::ZERO;
+    let mut too_far = L::ZERO.simd_ne(L::ZERO); // all false
+    let tolerance = L::splat(bdf2::ERROR_TOLERANCE as f32);
+    let members_len = members.len();
+    for i in 1..n {
+        let joint = &mut ls.joints[i - 1];
         let x = [
             joint.gain[0].dot(prefix) + joint.offset[0],
             joint.gain[1].dot(prefix) + joint.offset[1],
         ];
         joint.x = x;
-        joint.prefix = prefix;
+        joint.left = [h2 * joint.wg[0].dot(prefix), h2 * joint.wg[1].dot(prefix)];
         prefix = prefix + joint.a[0] * x[0] + joint.a[1] * x[1];
-    }
-
-    // Pass 4, tip to root: the residual of every row against the size of its terms (as the
-    // scalar solve checks it).
-    let mut suffix = V3::default();
-    let mut worst = L::ZERO;
-    let mut scale = L::ZERO;
-    for joint in ls.joints[..n - 1].iter().rev() {
-        let x = joint.x;
-        if !chain {
-            suffix = V3::default();
-        }
-        suffix = suffix + joint.v[0] * x[0] + joint.v[1] * x[1];
-        for t in 0..2 {
-            let left = h2 * joint.wg[t].dot(joint.prefix);
-            let right = h2 * joint.a[t].dot(suffix);
-            let diag = joint.d[t] * x[t];
-            let residual = diag - left - right - joint.b[t];
-            let size = diag.abs() + left.abs() + right.abs() + joint.b[t].abs();
-            failed |= !(residual.is_finite() & size.is_finite());
-            worst = worst.max(residual.abs());
-            scale = scale.max(size);
-        }
-    }
-    failed |= worst.simd_gt(L::splat(f32::EPSILON.sqrt()) * scale);
-
-    // Last pass, root to tip: the new state and the end-of-step positions and velocities.
-    let mut outcome = [LaneOutcome::Done; LANES];
-    let failed = failed.to_bitmask();
-    for (l, o) in outcome.iter_mut().enumerate() {
-        if failed & (1 << l) != 0 {
-            *o = LaneOutcome::Declined;
-        }
-    }
-    let mut rot = root_rot;
-    let mut omega = V3::default();
-    let mut pos = root_pos;
-    let mut vel = V3::default();
-    let mut bad = L::ZERO.simd_ne(L::ZERO);
-    let mut too_far = bad;
-    let tolerance = L::splat(bdf2::ERROR_TOLERANCE as f32);
-    let members_len = members.len();
-    for i in 1..n {
-        let joint = &ls.joints[i - 1];
-        let w = [joint.w[0] + joint.x[0], joint.w[1] + joint.x[1]];
+        let w = [joint.w[0] + x[0], joint.w[1] + x[1]];
         let q = if bdf2 {
             for t in 0..2 {
                 // BDF2's local error `(b / 3) (w_{n+1} - 2 w_n + w_{n-1})`, as `bdf2::solve_step`
@@ -969,8 +979,9 @@ fn step_group_in(
         let k_stretch = ls.nodes[i].k_stretch;
         let stretched = ls.nodes[i].rest_length * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
         let len = k_stretch.simd_gt(L::ZERO).select(stretched, joint.len);
-        bad |= !(q[0].is_finite() & q[1].is_finite() & w[0].is_finite() & w[1].is_finite());
-        bad |= !len.is_finite();
+        nan_if_bad += (nan_unless_finite(q[0]) + nan_unless_finite(q[1]))
+            + (nan_unless_finite(w[0]) + nan_unless_finite(w[1]))
+            + nan_unless_finite(len);
         let bend = LaneBend::new(q[0], q[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
@@ -986,6 +997,41 @@ fn step_group_in(
             pos,
             vel,
         };
+    }
+    let bad = not_finite(nan_if_bad);
+
+    // Pass 4, tip to root: the residual of every row against the size of its terms (as the
+    // scalar solve checks it).
+    let mut suffix = V3::default();
+    let mut worst = L::ZERO;
+    let mut scale = L::ZERO;
+    let mut nan_if_failed = L::ZERO;
+    for joint in ls.joints[..n - 1].iter().rev() {
+        let x = joint.x;
+        if !chain {
+            suffix = V3::default();
+        }
+        suffix = suffix + joint.v[0] * x[0] + joint.v[1] * x[1];
+        for t in 0..2 {
+            let left = joint.left[t];
+            let right = h2 * joint.a[t].dot(suffix);
+            let diag = joint.d[t] * x[t];
+            let residual = diag - left - right - joint.b[t];
+            let size = diag.abs() + left.abs() + right.abs() + joint.b[t].abs();
+            nan_if_failed += nan_unless_finite(residual) + nan_unless_finite(size);
+            worst = worst.max(residual.abs());
+            scale = scale.max(size);
+        }
+    }
+    failed |= not_finite(nan_if_failed);
+    failed |= worst.simd_gt(L::splat(f32::EPSILON.sqrt()) * scale);
+
+    let mut outcome = [LaneOutcome::Done; LANES];
+    let failed = failed.to_bitmask();
+    for (l, o) in outcome.iter_mut().enumerate() {
+        if failed & (1 << l) != 0 {
+            *o = LaneOutcome::Declined;
+        }
     }
     let (bad, too_far) = (bad.to_bitmask(), too_far.to_bitmask());
     for (l, o) in outcome.iter_mut().enumerate() {
