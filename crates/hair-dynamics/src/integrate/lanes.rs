@@ -704,6 +704,12 @@ fn step_group_in(
         ]
         .map(|field| Strands::new(field, &in_run, n))
     });
+    // The end-of-step positions and velocities are only written, at the end: asked for now,
+    // their lines are in cache by then rather than each first store waiting for one.
+    for l in 0..members.len() {
+        prefetch_slice(&run.positions[in_run[l]..in_run[l] + n]);
+        prefetch_slice(&run.velocities[in_run[l]..in_run[l] + n]);
+    }
     let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
     let root_pos = V3 {
         x: L::from(roots.map(|r| r.position.x)),
