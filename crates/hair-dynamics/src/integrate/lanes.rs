@@ -14,19 +14,21 @@
 //! drops their results, so a strand's answer never depends on which strands share its group
 //! (results are the same for any thread count).
 //!
-//! Per step and group, four passes over the nodes:
+//! Per step and group, after the group's fields are gathered into lane layout (8 x 8
+//! transposes), four passes over the nodes:
 //! 1. root to tip: the kinematics (positions, tangents, joint axes, and velocities where air
 //!    drags) and the prefix sums of `A w` (the frame's angular velocity, which the kinematics
 //!    accumulates anyway);
 //! 2. tip to root: forces, torques, inertia and the Jacobian's suffix sums, and in the same
-//!    iteration the joint's generators and its step of the elimination (no sums stored);
+//!    iteration the joint's generators (no sums stored); then, in a second tip-to-root loop,
+//!    each joint's step of the elimination;
 //! 3. root to tip: the unknowns, and with them the new state and the end-of-step positions and
 //!    velocities (the kinematics again);
-//! 4. tip to root: the residual check, on values pass 2 and 3 kept.
+//! 4. tip to root: the residual check, on values pass 2 and 3 kept;
 //!
-//! A lane whose check fails, whose state goes non-finite or whose BDF2 error
-//! estimate is over its bound is left untouched and redone by the scalar step (the check's
-//! failures counted as dense fallbacks).
+//! and the results transposed back to the state. A lane whose check fails, whose state goes
+//! non-finite or whose BDF2 error estimate is over its bound is left untouched and redone by
+//! the scalar step (the check's failures counted as dense fallbacks).
 
 use super::{Integrator, LinearSolver, Shared, StepSettings, TorqueModel, bdf2};
 use crate::run::Run;
