@@ -14,19 +14,21 @@
 //! drops their results, so a strand's answer never depends on which strands share its group
 //! (results are the same for any thread count).
 //!
-//! Per step and group, four passes over the nodes:
+//! Per step and group, after the group's fields are gathered into lane layout (8 x 8
+//! transposes), four passes over the nodes:
 //! 1. root to tip: the kinematics (positions, tangents, joint axes, and velocities where air
 //!    drags) and the prefix sums of `A w` (the frame's angular velocity, which the kinematics
 //!    accumulates anyway);
 //! 2. tip to root: forces, torques, inertia and the Jacobian's suffix sums, and in the same
-//!    iteration the joint's generators and its step of the elimination (no sums stored);
-//! 3. root to tip: the unknowns;
-//! 4. tip to root: the residual check, on values pass 2 and 3 kept.
+//!    iteration the joint's generators (no sums stored); then, in a second tip-to-root loop,
+//!    each joint's step of the elimination;
+//! 3. root to tip: the unknowns, and with them the new state and the end-of-step positions and
+//!    velocities (the kinematics again);
+//! 4. tip to root: the residual check, on values pass 2 and 3 kept;
 //!
-//! and a last root-to-tip pass that updates the state and writes the end-of-step positions and
-//! velocities. A lane whose check fails, whose state goes non-finite or whose BDF2 error
-//! estimate is over its bound is left untouched and redone by the scalar step (the check's
-//! failures counted as dense fallbacks).
+//! and the results transposed back to the state. A lane whose check fails, whose state goes
+//! non-finite or whose BDF2 error estimate is over its bound is left untouched and redone by
+//! the scalar step (the check's failures counted as dense fallbacks).
 
 use super::{Integrator, LinearSolver, Shared, StepSettings, TorqueModel, bdf2};
 use crate::run::Run;
@@ -171,10 +173,12 @@ struct JointSweep {
     /// Diagonal and right-hand side of the joint's two rows.
     d: [L; 2],
     b: [L; 2],
-    /// Prefix sum `sum_{k<j} A_k w_k` (pass 1), then `sum_{k<j} A_k x_k` (pass 3).
+    /// Prefix sum `sum_{k<j} A_k w_k` (pass 1).
     prefix: V3,
     /// The unknowns.
     x: [L; 2],
+    /// The residual check's terms `h^2 W_j^T sum_{k<j} A_k x_k` (pass 3).
+    left: [L; 2],
     /// The joint's angles, rates and segment length at the start of the step, gathered once.
     q: [L; 2],
     w: [L; 2],
@@ -196,6 +200,33 @@ struct LaneScratch {
     tension: Vec<L>,
     joints: Vec<JointSweep>,
     out: Vec<NodeOut>,
+    /// The group's per-node inputs in lane layout (`gather`, `gather3`).
+    nodes: Vec<NodeIn>,
+}
+
+/// A node's inputs of the group's eight strands, lane by lane: gathered from the state's
+/// strand-by-strand layout eight nodes at a time by transposes, not node by node (one strided
+/// load per lane and value).
+#[derive(Clone, Copy, Default)]
+struct NodeIn {
+    theta: L,
+    phi: L,
+    omega_theta: L,
+    omega_phi: L,
+    length: L,
+    mass: L,
+    wetness: L,
+    damping: L,
+    k_theta: L,
+    k_phi: L,
+    rest_theta: L,
+    rest_phi: L,
+    k_stretch: L,
+    rest_length: L,
+    rest_point: V3,
+    force: V3,
+    /// BDF2 only: the previous step's angles and rates.
+    prev: [L; 4],
 }
 
 /// A node's state at the end of the step, held until every lane's finiteness is known.
@@ -217,6 +248,7 @@ impl LaneScratch {
             self.tension.resize(n, L::ZERO);
             self.joints.resize(n, JointSweep::default());
             self.out.resize(n, NodeOut::default());
+            self.nodes.resize(n, NodeIn::default());
         }
     }
 }
@@ -288,13 +320,8 @@ impl<'a, T: Copy> Strands<'a, T> {
     #[inline(always)]
     fn new(field: &'a [T], base: &[usize; LANES], n: usize) -> Self {
         let lanes: [&'a [T]; LANES] = std::array::from_fn(|l| &field[base[l]..base[l] + n]);
-        #[cfg(target_arch = "x86_64")]
         for strand in &lanes {
-            // One element a 64-byte line, and the last, for a range that straddles a line.
-            let per_line = (64 / std::mem::size_of::<T>()).max(1);
-            for x in strand.iter().step_by(per_line).chain(strand.last()) {
-                prefetch(x);
-            }
+            prefetch_slice(strand);
         }
         Self(lanes)
     }
@@ -321,16 +348,180 @@ impl Strands<'_, Vector> {
     }
 }
 
+// The gathers and scatters below use loops of constant trip count, not `array::from_fn` or
+// `map`: in a function as large as `step_group_in` the closures of those were at times left
+// out of line, at several times the instructions (docs/perf/dynamics.md).
+
+/// Eight nodes of eight strands' `f32` field from `start`: a transposed 8 x 8 block, row `k`
+/// node `start + k` of every lane.
+#[inline(always)]
+fn block(field: &Strands<'_, f32>, start: usize) -> [L; 8] {
+    let mut rows = [L::ZERO; 8];
+    for l in 0..LANES {
+        let row: [f32; 8] = field.0[l][start..start + 8]
+            .try_into()
+            .expect("eight nodes");
+        rows[l] = L::from(row);
+    }
+    L::transpose(rows)
+}
+
+/// The start of each block of eight nodes that covers `n >= 8` nodes: every eighth node, the
+/// last block moved back to end at `n` (it overlaps the one before, which is rewritten with the
+/// same values).
+#[inline(always)]
+fn blocks(n: usize) -> impl Iterator<Item = usize> {
+    (0..n.div_ceil(8)).map(move |b| (8 * b).min(n - 8))
+}
+
+/// Eight 3-vectors' 24 coordinates in a row, cut in three rows of eight.
+#[inline(always)]
+fn thirds<T: Copy>(v: &[[T; 3]; 8]) -> [[T; 8]; 3] {
+    let flat = v.as_flattened();
+    let row = |o: usize| -> [T; 8] { flat[o..o + 8].try_into().expect("eight coordinates") };
+    [row(0), row(8), row(16)]
+}
+
+/// `field` of the group's `n` nodes into `set(node, lanes)`.
+#[inline(always)]
+fn gather(nodes: &mut [NodeIn], field: &Strands<'_, f32>, set: impl Fn(&mut NodeIn, L)) {
+    let n = nodes.len();
+    if n < 8 {
+        for (i, node) in nodes.iter_mut().enumerate() {
+            set(node, field.at(i));
+        }
+        return;
+    }
+    for start in blocks(n) {
+        let rows = block(field, start);
+        for k in 0..8 {
+            set(&mut nodes[start + k], rows[k]);
+        }
+    }
+}
+
+/// A 3-vector field of the group's `n` nodes into `set(node, lanes)`: as [`gather`] on the
+/// strands' coordinates read as one run of `3 n` floats, three 8 x 8 blocks for eight nodes.
+#[inline(always)]
+fn gather3(nodes: &mut [NodeIn], field: &Strands<'_, Vector>, set: impl Fn(&mut NodeIn, V3)) {
+    let n = nodes.len();
+    if n < 8 {
+        for (i, node) in nodes.iter_mut().enumerate() {
+            set(node, field.at3(i));
+        }
+        return;
+    }
+    for start in blocks(n) {
+        let mut rows = [[L::ZERO; 8]; 3];
+        for l in 0..LANES {
+            let v = &field.0[l][start..start + 8];
+            let mut xyz = [[0.0; 3]; 8];
+            for k in 0..8 {
+                xyz[k] = [v[k].x, v[k].y, v[k].z];
+            }
+            let t = thirds(&xyz);
+            for third in 0..3 {
+                rows[third][l] = L::from(t[third]);
+            }
+        }
+        let rows = [
+            L::transpose(rows[0]),
+            L::transpose(rows[1]),
+            L::transpose(rows[2]),
+        ];
+        let flat = rows.as_flattened();
+        for k in 0..8 {
+            let v = V3 {
+                x: flat[3 * k],
+                y: flat[3 * k + 1],
+                z: flat[3 * k + 2],
+            };
+            set(&mut nodes[start + k], v);
+        }
+    }
+}
+
+/// Eight nodes' lanes `value(k)` (`k` in `0..8`) into `field[at[l]..at[l] + 8]` of every lane
+/// `l` that is `done`: [`block`]'s transpose the other way.
+#[inline(always)]
+fn scatter(
+    done: &[bool; LANES],
+    at: &[usize; LANES],
+    field: &mut [f32],
+    value: impl Fn(usize) -> L,
+) {
+    let mut rows = [L::ZERO; 8];
+    for k in 0..8 {
+        rows[k] = value(k);
+    }
+    let rows = L::transpose(rows);
+    for l in 0..LANES {
+        if done[l] {
+            field[at[l]..at[l] + 8].copy_from_slice(rows[l].as_array());
+        }
+    }
+}
+
+/// Eight nodes' 3-vectors `value(k)` to `store(l, xyz)` of every lane `l` that is `done`, the
+/// coordinates of the eight in a row: as [`scatter`] on the 24 coordinates, three 8 x 8 blocks.
+#[inline(always)]
+fn scatter3(
+    done: &[bool; LANES],
+    mut store: impl FnMut(usize, &[f32; 24]),
+    value: impl Fn(usize) -> V3,
+) {
+    let mut xyz = [[L::ZERO; 3]; 8];
+    for k in 0..8 {
+        let v = value(k);
+        xyz[k] = [v.x, v.y, v.z];
+    }
+    let t = thirds(&xyz);
+    let rows = [L::transpose(t[0]), L::transpose(t[1]), L::transpose(t[2])];
+    for l in 0..LANES {
+        if done[l] {
+            let mut flat = [0.0; 24];
+            for third in 0..3 {
+                flat[8 * third..8 * third + 8].copy_from_slice(rows[third][l].as_array());
+            }
+            store(l, &flat);
+        }
+    }
+}
+
+/// Asks for every 64-byte line of `items` (see [`Strands::new`]): one address a line, and the
+/// last element, for a range that straddles one line more. Plain address arithmetic: an
+/// iterator chain here cost more instructions than the rest of the group's set-up
+/// (docs/perf/dynamics.md).
+#[inline(always)]
+fn prefetch_slice<T>(items: &[T]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let start = items.as_ptr().cast::<u8>();
+        let bytes = std::mem::size_of_val(items);
+        let mut offset = 0;
+        while offset < bytes {
+            prefetch(start.wrapping_add(offset));
+            offset += 64;
+        }
+        if let Some(last) = items.last() {
+            prefetch(std::ptr::from_ref(last).cast());
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = items;
+}
+
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 #[expect(
     unsafe_code,
-    reason = "a prefetch hint reads nothing and cannot fault; the address is a live reference"
+    reason = "a prefetch hint reads nothing and cannot fault; the addresses are within live slices"
 )]
-fn prefetch<T>(x: &T) {
+fn prefetch(x: *const u8) {
     use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-    // SAFETY: `_mm_prefetch` only hints the cache; SSE is part of every x86-64 target.
-    unsafe { _mm_prefetch::<_MM_HINT_T0>(std::ptr::from_ref(x).cast()) };
+    // SAFETY: `_mm_prefetch` only hints the cache and never faults, whatever the address; SSE is
+    // part of every x86-64 target.
+    unsafe { _mm_prefetch::<_MM_HINT_T0>(x.cast()) };
 }
 
 /// The air's velocity relative to the head, in the head's frame, for eight points at once: the
@@ -394,6 +585,26 @@ impl LaneAir {
         let frame = self.linear_velocity + self.angular_velocity.cross(turned);
         self.turn.tr_mul_v(wind - frame)
     }
+}
+
+/// Zero where `v` is finite, NaN where it is infinite or NaN. A sum of these is zero exactly
+/// when every term's value is finite, so [`not_finite`] of the sum is an `is_finite` test of
+/// them all: one float subtraction and one addition a value where `f32x8::is_finite` takes
+/// integer instructions, which AVX without AVX2 runs as two halves each
+/// (docs/perf/dynamics.md).
+#[inline(always)]
+#[expect(
+    clippy::eq_op,
+    reason = "v - v is the test: NaN exactly when v is not finite"
+)]
+fn nan_unless_finite(v: L) -> L {
+    v - v
+}
+
+/// The lanes where `nan_if_not` (a sum of [`nan_unless_finite`] terms) is not zero.
+#[inline(always)]
+fn not_finite(nan_if_not: L) -> L {
+    !nan_if_not.simd_eq(L::ZERO)
 }
 
 /// A scalar function of a point, evaluated lane by lane (the environment's force fields).
@@ -495,6 +706,12 @@ fn step_group_in(
         ]
         .map(|field| Strands::new(field, &in_run, n))
     });
+    // The end-of-step positions and velocities are only written, at the end: asked for now,
+    // their lines are in cache by then rather than each first store waiting for one.
+    for l in 0..members.len() {
+        prefetch_slice(&run.positions[in_run[l]..in_run[l] + n]);
+        prefetch_slice(&run.velocities[in_run[l]..in_run[l] + n]);
+    }
     let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
     let root_pos = V3 {
         x: L::from(roots.map(|r| r.position.x)),
@@ -520,6 +737,20 @@ fn step_group_in(
     let has_fields = !sh.env.env.fields.is_empty();
     let drag = L::splat(sh.env.env.wind.drag);
 
+    // What pass 1 reads, in lane layout (the other fields later: their prefetches then have
+    // pass 1's time to arrive).
+    let nodes = &mut ls.nodes[..n];
+    gather(nodes, &theta, |node, v| node.theta = v);
+    gather(nodes, &phi, |node, v| node.phi = v);
+    gather(nodes, &omega_theta, |node, v| node.omega_theta = v);
+    gather(nodes, &omega_phi, |node, v| node.omega_phi = v);
+    gather(nodes, &length, |node, v| node.length = v);
+    if let Some(previous) = &previous {
+        for (t, field) in previous.iter().enumerate() {
+            gather(nodes, field, |node, v| node.prev[t] = v);
+        }
+    }
+
     // Pass 1, root to tip: kinematics and the prefix sums of A w.
     let mut rot = root_rot;
     let mut omega = V3::default();
@@ -527,25 +758,26 @@ fn step_group_in(
     ls.pos[0] = root_pos;
     ls.vel[0] = V3::default();
     for i in 1..n {
-        let (x, y) = (theta.at(i), phi.at(i));
-        let (wx, wy) = (omega_theta.at(i), omega_phi.at(i));
+        let node = &ls.nodes[i];
+        let (x, y) = (node.theta, node.phi);
+        let (wx, wy) = (node.omega_theta, node.omega_phi);
         // BDF2 (`integrate::bdf2`): the coupled system with `h -> b`, the rates on the right
         // `w + a / b`, and the torque `tau + I c / b` (pass 2).
-        let (shift, w_prev, w_rhs) = match &previous {
-            Some([pq0, pq1, pw0, pw1]) => {
-                let shift = [(x - pq0.at(i)) / third, (y - pq1.at(i)) / third]
-                    .map(|a| has_history.select(a, L::ZERO));
-                let w_prev = [pw0.at(i), pw1.at(i)];
-                (shift, w_prev, [wx + shift[0] / h, wy + shift[1] / h])
-            }
-            None => ([L::ZERO; 2], [L::ZERO; 2], [wx, wy]),
+        let (shift, w_prev, w_rhs) = if bdf2 {
+            let [pq0, pq1, pw0, pw1] = node.prev;
+            let shift =
+                [(x - pq0) / third, (y - pq1) / third].map(|a| has_history.select(a, L::ZERO));
+            let w_prev = [pw0, pw1];
+            (shift, w_prev, [wx + shift[0] / h, wy + shift[1] / h])
+        } else {
+            ([L::ZERO; 2], [L::ZERO; 2], [wx, wy])
         };
         let bend = LaneBend::new(x, y);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
         rot = rot.mul_m(&bend.rotation);
         let t = rot.column(2);
-        let len = length.at(i);
+        let len = node.length;
         let seg = t * len;
         let joint = &mut ls.joints[i - 1];
         (joint.q, joint.w, joint.len) = ([x, y], [wx, wy], len);
@@ -565,8 +797,24 @@ fn step_group_in(
         }
     }
 
-    // Pass 2, tip to root: torques and sums, generators, elimination.
-    let mut failed = L::ZERO.simd_ne(L::ZERO); // all false
+    let nodes = &mut ls.nodes[..n];
+    gather(nodes, &mass, |node, v| node.mass = v);
+    gather(nodes, &wetness, |node, v| node.wetness = v);
+    gather(nodes, &damping, |node, v| node.damping = v);
+    gather(nodes, &k_theta, |node, v| node.k_theta = v);
+    gather(nodes, &k_phi, |node, v| node.k_phi = v);
+    gather(nodes, &rest_theta, |node, v| node.rest_theta = v);
+    gather(nodes, &rest_phi, |node, v| node.rest_phi = v);
+    gather(nodes, &k_stretch, |node, v| node.k_stretch = v);
+    gather(nodes, &rest_length, |node, v| node.rest_length = v);
+    gather3(nodes, &rest_points, |node, v| node.rest_point = v);
+    if let Some(force) = &force {
+        gather3(nodes, force, |node, v| node.force = v);
+    }
+
+    // Pass 2, tip to root: torques and sums, generators (the elimination in pass 2b: each loop
+    // then keeps fewer sums live than the sixteen registers, where one loop spilled most of them;
+    // docs/perf/dynamics.md).
     let floor = L::splat(1e-2);
     let (mut s_f, mut t_vec, mut s_m, mut s_mp, mut s_mp2) = (
         V3::default(),
@@ -576,8 +824,8 @@ fn step_group_in(
         L::ZERO,
     );
     let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
-    let (mut gain_m, mut gain_r, mut suffix_w) = (M3::default(), V3::default(), V3::default());
-    let mut rest_next = rest_points.at3(n - 1);
+    let mut suffix_w = V3::default();
+    let mut rest_next = ls.nodes[n - 1].rest_point;
     for i in (1..n).rev() {
         let j = i - 1;
         let (q, w, len) = {
@@ -586,7 +834,8 @@ fn step_group_in(
         };
         let pivot = ls.pos[i - 1];
         let xi = ls.pos[i];
-        let mi = mass.at(i) + wetness.at(i);
+        let node = &ls.nodes[i];
+        let mi = node.mass + node.wetness;
         let mut fi = gravity * mi;
         if let Some(air) = &sh.lane_air {
             // Drag on the air's velocity across the segment, as `strand::forces` has it.
@@ -599,12 +848,12 @@ fn step_group_in(
             let m: [f32; LANES] = mi.to_array();
             fi = fi + per_lane(xi, |l, x| sh.env.field_force(&x, m[l]));
         }
-        if let Some(force) = &force {
-            fi = fi + force.at3(i);
+        if has_external {
+            fi = fi + node.force;
         }
         let seg = xi - pivot;
         let rp = rest_next;
-        let rc = rest_points.at3(i - 1);
+        let rc = ls.nodes[i - 1].rest_point;
         rest_next = rc;
         s_m += mi;
         s_mp = s_mp + rp * mi;
@@ -629,9 +878,9 @@ fn step_group_in(
         }
         let inertia = inertia.max(floor * mi * len * len);
         ls.tension[i] = load.dot(ls.tangent[i]);
-        let damping = damping.at(i);
-        let k = [k_theta.at(i), k_phi.at(i)];
-        let rest = [rest_theta.at(i), rest_phi.at(i)];
+        let damping = node.damping;
+        let k = [node.k_theta, node.k_phi];
+        let rest = [node.rest_theta, node.rest_phi];
         let joint = &mut ls.joints[j];
         let a = joint.a;
         // The Jacobian's generators (`strand::load_column_generator`, `load_row_generator`).
@@ -639,8 +888,6 @@ fn step_group_in(
         let v = a.map(|at| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot);
         let wg = a.map(|at| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque));
         if !chain {
-            gain_m = M3::default();
-            gain_r = V3::default();
             suffix_w = V3::default();
         }
         let w_rhs = if bdf2 { joint.w_rhs } else { w };
@@ -657,6 +904,21 @@ fn step_group_in(
             d[t] = inertia + h * damping + h2 * k[t];
             b[t] = h * tau + h2 * (jw - k[t] * w_rhs[t]);
         }
+        joint.v = v;
+        joint.wg = wg;
+        joint.d = d;
+        joint.b = b;
+    }
+
+    // Pass 2b, tip to root: the elimination.
+    let mut failed = L::ZERO.simd_ne(L::ZERO); // all false
+    let (mut gain_m, mut gain_r) = (M3::default(), V3::default());
+    for joint in ls.joints[..n - 1].iter_mut().rev() {
+        if !chain {
+            gain_m = M3::default();
+            gain_r = V3::default();
+        }
+        let (a, v, wg, d, b) = (joint.a, joint.v, joint.wg, joint.d, joint.b);
         // suf_j = G x_j + M pre_j + r with G = M A_j + V_j; the joint's 2 x 2 block.
         let g = [gain_m.mul_v(a[0]) + v[0], gain_m.mul_v(a[1]) + v[1]];
         let b00 = d[0] - h2 * a[0].dot(g[0]);
@@ -664,7 +926,7 @@ fn step_group_in(
         let b10 = -h2 * a[1].dot(g[0]);
         let b11 = d[1] - h2 * a[1].dot(g[1]);
         let det = b00 * b11 - b01 * b10;
-        failed |= det.simd_eq(L::ZERO) | !det.is_finite();
+        failed |= det.simd_eq(L::ZERO) | not_finite(nan_unless_finite(det));
         let inv_det = L::ONE / det;
         let inv = [
             [b11 * inv_det, -b01 * inv_det],
@@ -680,69 +942,33 @@ fn step_group_in(
         gain_m.add_outer(g[0], gain[0]);
         gain_m.add_outer(g[1], gain[1]);
         gain_r = gain_r + g[0] * offset[0] + g[1] * offset[1];
-        joint.v = v;
-        joint.wg = wg;
         joint.gain = gain;
         joint.offset = offset;
-        joint.d = d;
-        joint.b = b;
     }
 
-    // Pass 3, root to tip: the unknowns, and the prefix sums of A x for the check.
+    // Pass 3, root to tip: the unknowns (`x_j = E_j pre_j + e_j` on the prefix sums of `A x`),
+    // the new state and the end-of-step positions and velocities; and the check's terms that
+    // read the prefix sums, while they are at hand.
     let mut prefix = V3::default();
-    for joint in &mut ls.joints[..n - 1] {
+    let mut rot = root_rot;
+    let mut omega = V3::default();
+    let mut pos = root_pos;
+    let mut vel = V3::default();
+    // Zero, or NaN in a lane with a value of its new state that is not finite.
+    let mut nan_if_bad = L::ZERO;
+    let mut too_far = L::ZERO.simd_ne(L::ZERO); // all false
+    let tolerance = L::splat(bdf2::ERROR_TOLERANCE as f32);
+    let members_len = members.len();
+    for i in 1..n {
+        let joint = &mut ls.joints[i - 1];
         let x = [
             joint.gain[0].dot(prefix) + joint.offset[0],
             joint.gain[1].dot(prefix) + joint.offset[1],
         ];
         joint.x = x;
-        joint.prefix = prefix;
+        joint.left = [h2 * joint.wg[0].dot(prefix), h2 * joint.wg[1].dot(prefix)];
         prefix = prefix + joint.a[0] * x[0] + joint.a[1] * x[1];
-    }
-
-    // Pass 4, tip to root: the residual of every row against the size of its terms (as the
-    // scalar solve checks it).
-    let mut suffix = V3::default();
-    let mut worst = L::ZERO;
-    let mut scale = L::ZERO;
-    for joint in ls.joints[..n - 1].iter().rev() {
-        let x = joint.x;
-        if !chain {
-            suffix = V3::default();
-        }
-        suffix = suffix + joint.v[0] * x[0] + joint.v[1] * x[1];
-        for t in 0..2 {
-            let left = h2 * joint.wg[t].dot(joint.prefix);
-            let right = h2 * joint.a[t].dot(suffix);
-            let diag = joint.d[t] * x[t];
-            let residual = diag - left - right - joint.b[t];
-            let size = diag.abs() + left.abs() + right.abs() + joint.b[t].abs();
-            failed |= !(residual.is_finite() & size.is_finite());
-            worst = worst.max(residual.abs());
-            scale = scale.max(size);
-        }
-    }
-    failed |= worst.simd_gt(L::splat(f32::EPSILON.sqrt()) * scale);
-
-    // Last pass, root to tip: the new state and the end-of-step positions and velocities.
-    let mut outcome = [LaneOutcome::Done; LANES];
-    let failed = failed.to_bitmask();
-    for (l, o) in outcome.iter_mut().enumerate() {
-        if failed & (1 << l) != 0 {
-            *o = LaneOutcome::Declined;
-        }
-    }
-    let mut rot = root_rot;
-    let mut omega = V3::default();
-    let mut pos = root_pos;
-    let mut vel = V3::default();
-    let mut bad = L::ZERO.simd_ne(L::ZERO);
-    let mut too_far = bad;
-    let tolerance = L::splat(bdf2::ERROR_TOLERANCE as f32);
-    let members_len = members.len();
-    for i in 1..n {
-        let joint = &ls.joints[i - 1];
-        let w = [joint.w[0] + joint.x[0], joint.w[1] + joint.x[1]];
+        let w = [joint.w[0] + x[0], joint.w[1] + x[1]];
         let q = if bdf2 {
             for t in 0..2 {
                 // BDF2's local error `(b / 3) (w_{n+1} - 2 w_n + w_{n-1})`, as `bdf2::solve_step`
@@ -758,11 +984,12 @@ fn step_group_in(
             [joint.q[0] + h * w[0], joint.q[1] + h * w[1]]
         };
         // Quasi-static stretch springs: each segment takes the length its tension asks for.
-        let k_stretch = k_stretch.at(i);
-        let stretched = rest_length.at(i) * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
+        let k_stretch = ls.nodes[i].k_stretch;
+        let stretched = ls.nodes[i].rest_length * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
         let len = k_stretch.simd_gt(L::ZERO).select(stretched, joint.len);
-        bad |= !(q[0].is_finite() & q[1].is_finite() & w[0].is_finite() & w[1].is_finite());
-        bad |= !len.is_finite();
+        nan_if_bad += (nan_unless_finite(q[0]) + nan_unless_finite(q[1]))
+            + (nan_unless_finite(w[0]) + nan_unless_finite(w[1]))
+            + nan_unless_finite(len);
         let bend = LaneBend::new(q[0], q[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
@@ -779,6 +1006,41 @@ fn step_group_in(
             vel,
         };
     }
+    let bad = not_finite(nan_if_bad);
+
+    // Pass 4, tip to root: the residual of every row against the size of its terms (as the
+    // scalar solve checks it).
+    let mut suffix = V3::default();
+    let mut worst = L::ZERO;
+    let mut scale = L::ZERO;
+    let mut nan_if_failed = L::ZERO;
+    for joint in ls.joints[..n - 1].iter().rev() {
+        let x = joint.x;
+        if !chain {
+            suffix = V3::default();
+        }
+        suffix = suffix + joint.v[0] * x[0] + joint.v[1] * x[1];
+        for t in 0..2 {
+            let left = joint.left[t];
+            let right = h2 * joint.a[t].dot(suffix);
+            let diag = joint.d[t] * x[t];
+            let residual = diag - left - right - joint.b[t];
+            let size = diag.abs() + left.abs() + right.abs() + joint.b[t].abs();
+            nan_if_failed += nan_unless_finite(residual) + nan_unless_finite(size);
+            worst = worst.max(residual.abs());
+            scale = scale.max(size);
+        }
+    }
+    failed |= not_finite(nan_if_failed);
+    failed |= worst.simd_gt(L::splat(f32::EPSILON.sqrt()) * scale);
+
+    let mut outcome = [LaneOutcome::Done; LANES];
+    let failed = failed.to_bitmask();
+    for (l, o) in outcome.iter_mut().enumerate() {
+        if failed & (1 << l) != 0 {
+            *o = LaneOutcome::Declined;
+        }
+    }
     let (bad, too_far) = (bad.to_bitmask(), too_far.to_bitmask());
     for (l, o) in outcome.iter_mut().enumerate() {
         if *o == LaneOutcome::Done && bad & (1 << l) != 0 {
@@ -787,12 +1049,10 @@ fn step_group_in(
             *o = LaneOutcome::Redo;
         }
     }
-    // Lane by lane back to the run: only the strands that succeeded, each written from root to
-    // tip (a few streams at a time, not eight strands' worth at once).
-    for l in 0..members_len {
-        if outcome[l] != LaneOutcome::Done {
-            continue;
-        }
+    // Back to the run: only the strands that succeeded.
+    let done: [bool; LANES] =
+        std::array::from_fn(|l| l < members_len && outcome[l] == LaneOutcome::Done);
+    for l in (0..LANES).filter(|&l| done[l]) {
         let base = in_run[l];
         run.positions[base] = run.roots[local[l]].position;
         run.velocities[base] = Vector::zeros();
@@ -807,21 +1067,62 @@ fn step_group_in(
             let rs = &mut run.roots[local[l]];
             (rs.prev_position, rs.prev_velocity) = (rs.position, rs.velocity);
         }
-        for i in 1..n {
-            let out = &ls.out[i];
-            let lane = |v: &L| v.as_array()[l];
-            let at = base + i;
-            run.theta[at] = lane(&out.q[0]);
-            run.phi[at] = lane(&out.q[1]);
-            run.omega_theta[at] = lane(&out.w[0]);
-            run.omega_phi[at] = lane(&out.w[1]);
-            run.length[at] = lane(&out.len);
-            run.positions[at] = Point::new(lane(&out.pos.x), lane(&out.pos.y), lane(&out.pos.z));
-            run.velocities[at] = Vector::new(lane(&out.vel.x), lane(&out.vel.y), lane(&out.vel.z));
+    }
+    if n > 8 {
+        // Eight nodes at a time, transposed back to strand by strand: each lane's eight values
+        // of a field are one store.
+        for start in blocks(n - 1).map(|b| b + 1) {
+            let out = &ls.out[start..start + 8];
+            let at: [usize; LANES] = std::array::from_fn(|l| in_run[l] + start);
+            scatter(&done, &at, &mut *run.theta, |k| out[k].q[0]);
+            scatter(&done, &at, &mut *run.phi, |k| out[k].q[1]);
+            scatter(&done, &at, &mut *run.omega_theta, |k| out[k].w[0]);
+            scatter(&done, &at, &mut *run.omega_phi, |k| out[k].w[1]);
+            scatter(&done, &at, &mut *run.length, |k| out[k].len);
+            scatter3(
+                &done,
+                |l, flat| {
+                    let dst = &mut run.positions[at[l]..at[l] + 8];
+                    for (p, c) in dst.iter_mut().zip(flat.chunks_exact(3)) {
+                        *p = Point::new(c[0], c[1], c[2]);
+                    }
+                },
+                |k| out[k].pos,
+            );
+            scatter3(
+                &done,
+                |l, flat| {
+                    let dst = &mut run.velocities[at[l]..at[l] + 8];
+                    for (v, c) in dst.iter_mut().zip(flat.chunks_exact(3)) {
+                        *v = Vector::new(c[0], c[1], c[2]);
+                    }
+                },
+                |k| out[k].vel,
+            );
         }
+    } else {
+        for l in (0..LANES).filter(|&l| done[l]) {
+            let base = in_run[l];
+            for i in 1..n {
+                let out = &ls.out[i];
+                let lane = |v: &L| v.as_array()[l];
+                let at = base + i;
+                run.theta[at] = lane(&out.q[0]);
+                run.phi[at] = lane(&out.q[1]);
+                run.omega_theta[at] = lane(&out.w[0]);
+                run.omega_phi[at] = lane(&out.w[1]);
+                run.length[at] = lane(&out.len);
+                run.positions[at] =
+                    Point::new(lane(&out.pos.x), lane(&out.pos.y), lane(&out.pos.z));
+                run.velocities[at] =
+                    Vector::new(lane(&out.vel.x), lane(&out.vel.y), lane(&out.vel.z));
+            }
+        }
+    }
+    for l in (0..LANES).filter(|&l| done[l]) {
         run.roots[local[l]].history = if bdf2 {
             let rs = &run.roots[local[l]];
-            bdf2::history_tag_of(m2, coordinates(run, base, n), rs, settings.dt)
+            bdf2::history_tag_of(m2, coordinates(run, in_run[l], n), rs, settings.dt)
         } else {
             0
         };
