@@ -276,7 +276,7 @@ impl BodyConstraint {
                     let reach = radius[n as usize];
                     let clear = |i: &usize| {
                         let c = hits[*i].clearance;
-                        c.bound - (body.local(&positions[*i]) - c.at).norm() >= reach
+                        c.keeps_out(&body.local(&positions[*i]), reach)
                     };
                     chain[1] = (r.start + from as usize..r.end)
                         .find(|i| !clear(i))
@@ -324,7 +324,7 @@ impl BodyConstraint {
                         // of the distance field) saved for most nodes after the first sweep.
                         let local = body.local(&ask.at);
                         let clear = slot.clearance;
-                        if use_clearance && clear.bound - (local - clear.at).norm() >= radius {
+                        if use_clearance && clear.keeps_out(&local, radius) {
                             *slot = SweepHit {
                                 normal: None,
                                 depth: 0.0,
@@ -466,7 +466,7 @@ impl BodyConstraint {
                     }
                     let local = body.local(at);
                     let clear = sweep_hits[bn.node as usize].clearance;
-                    if clear.bound - (local - clear.at).norm() >= bn.radius {
+                    if clear.keeps_out(&local, bn.radius) {
                         return (None, None);
                     }
                     let (hit, bound) = body.distance_within_clearance(method, &local, bn.radius);
@@ -795,6 +795,15 @@ struct SweepHit {
 struct Clearance {
     at: Point,
     bound: Real,
+}
+
+impl Clearance {
+    /// Whether it keeps a node at `local` (the body's frame) out of a reach of `reach`: the
+    /// method's distance there is then at least `reach`, or it has none.
+    #[inline]
+    fn keeps_out(&self, local: &Point, reach: Real) -> bool {
+        self.bound - (local - self.at).norm() >= reach
+    }
 }
 
 impl Default for Clearance {
