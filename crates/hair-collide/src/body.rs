@@ -3,7 +3,9 @@
 
 use crate::{BodySupport, CollisionSettings};
 use hair_dynamics::{DynamicsError, NodeCorrection, SkeletonId, StrandState, VelocityConstraint};
-use hair_ssv::{BodyIdentity, CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular};
+use hair_ssv::{
+    BodyIdentity, Clearance, CollisionMethod, MeshBody, Point, Real, Vector, any_perpendicular,
+};
 use nalgebra::Isometry3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -21,9 +23,9 @@ pub struct BodyReport {
 /// The hard body constraint with its scratch buffers: after the first call, a call allocates
 /// nothing once the buffers have grown to the hair.
 ///
-/// It also keeps, per node, a lower bound of the body's distance about where a sweep last
-/// queried it, so that a node the bound still keeps out of reach is not queried again (most
-/// nodes, most steps; the results are the same bits). The bounds hold for one body
+/// It also keeps, per node, the clearance of its last query (how far it may move from where it
+/// was asked and stay out of reach: [`Clearance`]), so that a node still within it is not
+/// queried again (most nodes, most steps; the results are the same bits). The bounds hold for one body
 /// ([`MeshBody::identity`]) by one [`CollisionMethod`] and are dropped when either, or the node
 /// count, changes; they are kept in the body's own frame, so a part's pose may change.
 #[derive(Clone, Debug, Default)]
@@ -334,14 +336,15 @@ impl BodyConstraint {
                             };
                             return None;
                         }
-                        let (hit, bound) = body.distance_within_clearance(method, &local, radius);
+                        let (hit, clearance) =
+                            body.distance_within_clearance(method, &local, radius);
                         let hit = hit.filter(|(d, _)| *d < radius);
                         *slot = SweepHit {
                             normal: hit.map(|(_, n)| n),
                             depth: hit.map_or(0.0, |(d, _)| -d),
                             tested: true,
                             corrected: false,
-                            clearance: Clearance { at: local, bound },
+                            clearance,
                         };
                         let (d, n) = hit?;
                         // Only the thread sweeping this chain writes its entry; the atomic
@@ -469,8 +472,8 @@ impl BodyConstraint {
                     if clear.keeps_out(&local, bn.radius) {
                         return (None, None);
                     }
-                    let (hit, bound) = body.distance_within_clearance(method, &local, bn.radius);
-                    let clearance = Clearance { at: local, bound };
+                    let (hit, clearance) =
+                        body.distance_within_clearance(method, &local, bn.radius);
                     (hit.filter(|(d, _)| *d < bn.radius), Some(clearance))
                 })
                 .collect_into_vec(&mut self.body_hits);
@@ -788,34 +791,6 @@ struct SweepHit {
     clearance: Clearance,
 }
 
-/// A lower bound of the body's distance about a place: the distance the constraint's method
-/// answers at any point `q` (the body's frame) is at least `bound - |q - at|`, or no answer
-/// ([`MeshBody::distance_within_clearance`]).
-#[derive(Clone, Copy, Debug)]
-struct Clearance {
-    at: Point,
-    bound: Real,
-}
-
-impl Clearance {
-    /// Whether it keeps a node at `local` (the body's frame) out of a reach of `reach`: the
-    /// method's distance there is then at least `reach`, or it has none.
-    #[inline]
-    fn keeps_out(&self, local: &Point, reach: Real) -> bool {
-        self.bound - (local - self.at).norm() >= reach
-    }
-}
-
-impl Default for Clearance {
-    /// None known: no place is out of reach by it.
-    fn default() -> Self {
-        Self {
-            at: Point::origin(),
-            bound: Real::NEG_INFINITY,
-        }
-    }
-}
-
 /// A node the hard body constraint tests, with the node before it on its skeleton.
 #[derive(Clone, Copy, Debug)]
 struct BodyNode {
@@ -871,7 +846,7 @@ impl Surface<'_> {
         method: CollisionMethod,
         local: &Point,
         reach: Real,
-    ) -> (Option<(Real, Vector)>, Real) {
+    ) -> (Option<(Real, Vector)>, Clearance) {
         let (hit, clearance) = self.body.distance_within_clearance(method, local, reach);
         match self.motion {
             None => (hit, clearance),

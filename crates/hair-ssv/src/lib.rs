@@ -68,8 +68,8 @@ pub use distance_field::DistanceField;
 pub use error::SsvError;
 pub use fit::{fit_lss, fit_rss, fit_rss_triangles};
 pub use mesh_body::{
-    BodyIdentity, CollisionMethod, FIELD_SAMPLES, MeshBody, NEAR_MARGIN, NearField, PseudoNormals,
-    cap_holes, is_closed, wrinkled_torus,
+    BodyIdentity, Clearance, CollisionMethod, FIELD_SAMPLES, MeshBody, NEAR_MARGIN, NearField,
+    PseudoNormals, cap_holes, is_closed, wrinkled_torus,
 };
 pub use ray::RayHit;
 pub use shape::{AXIS_TOLERANCE, Lss, Pss, Rss, Ssv};

@@ -535,25 +535,34 @@ impl MeshBody {
         self.distance_within_clearance(method, p, reach).0
     }
 
-    /// [`MeshBody::distance_within`] at `p`, and the clearance found there: a `b` such that,
-    /// wherever `q` is, `distance_within(method, q, r)` (any `r`) is `None` or at least
-    /// `b - |q - p|`; `-inf` where none is known (an open mesh, `Maps`, or `p` outside the near
-    /// field). A caller that keeps `p` and `b` need not ask again at a `q` with
-    /// `b - |q - p| >= r` (for this body: see [`MeshBody::identity`], and this method). The
-    /// clearance keeps the near field's margin for rounding (1e-6 m), so asking again there
-    /// would have answered `None` or a distance of at least `r`.
+    /// [`MeshBody::distance_within`] at `p`, and what it tells about the answers near `p`
+    /// (see [`Clearance`]): on a closed body, how far from `p` the answer for `reach` (or a
+    /// smaller one) stays `None` or at least `reach`; none on an open mesh, by `Maps`, or
+    /// outside the near field. Two bounds hold, and the wider is kept:
+    /// - the exact distance's: it changes no faster than the point moves, and the method answers
+    ///   within `spread` of it (below);
+    /// - the method's own: a `Field` value is the trilinear interpolant of exact samples, whose
+    ///   slope along an axis is a blend of the slopes of the cell's edges along it (each at most
+    ///   one), so it changes at most `sqrt(3)` times as fast as the point moves, with no
+    ///   `spread` to give away. Hair resting a millimetre off the body keeps this one.
+    ///
+    /// Each keeps a margin for rounding (1e-6 m), so asking again within its travel would have
+    /// answered `None` or a distance of at least `reach` (for this body: see
+    /// [`MeshBody::identity`]).
     #[inline]
     pub fn distance_within_clearance(
         &self,
         method: CollisionMethod,
         p: &Point,
         reach: Real,
-    ) -> (Option<(Real, Vector)>, Real) {
-        let error = match method {
+    ) -> (Option<(Real, Vector)>, Clearance) {
+        // The method's error against the exact distance, and how fast its answer can change
+        // with the point; the tables of `Maps` have neither stated, so they keep no clearance.
+        let (error, slope) = match method {
             // A field value is a convex combination of exact samples within a cell diagonal.
-            CollisionMethod::Field => self.field.spacing() * 3f32.sqrt() * 1.001,
-            CollisionMethod::Bvh => 0.0,
-            CollisionMethod::Maps => Real::INFINITY,
+            CollisionMethod::Field => (self.field.spacing() * 3f32.sqrt() * 1.001, 3f32.sqrt()),
+            CollisionMethod::Bvh => (0.0, 1.0),
+            CollisionMethod::Maps => return (self.distance(method, p), Clearance::NONE),
         };
         // How far the method's answer can be from the exact distance, for the clearance: a
         // field value is the trilinear mean of exact samples at its cell's corners, and the
@@ -562,11 +571,11 @@ impl MeshBody {
         // most the root of that), so the answer is within half a diagonal of the exact
         // distance; `error`, which the near field's test keeps, takes a whole one.
         let spread = 0.5 * error;
-        let mut clearance = Real::NEG_INFINITY;
+        let mut travel = Real::NEG_INFINITY;
         // One look-up of the near field serves the bound and the margin (`distance`'s own).
         if !self.near.centre.is_empty() {
             let Some((k, c)) = self.near.cell_of(p) else {
-                return (None, clearance);
+                return (None, Clearance::NONE);
             };
             let centre = self.near.centre[k];
             // The exact distance at `p` is at least the centre's less the way to it, and at
@@ -574,13 +583,13 @@ impl MeshBody {
             // faster than the point moves); the method answers within `spread` of it.
             let r = (p - c).norm();
             if self.closed {
-                clearance = centre - r - spread - 1e-6;
+                travel = centre - r - spread - 1e-6 - reach;
                 if centre - r - error - 1e-6 >= reach {
-                    return (None, clearance);
+                    return (None, Clearance::about(*p, reach, travel));
                 }
             }
             if centre > self.near.reach {
-                return (None, clearance);
+                return (None, Clearance::about(*p, reach, travel));
             }
         }
         let hit = self.distance_near(method, p);
@@ -588,10 +597,13 @@ impl MeshBody {
             && let Some((d, _)) = hit
         {
             // The answer `d` is within `spread` of the exact distance at `p`, whose value at
-            // `q` is at least that less `|q - p|`, and the answer at `q` within `spread` of it.
-            clearance = clearance.max(d - 2.0 * spread - 1e-6);
+            // `q` is at least that less `|q - p|`, and the answer at `q` within `spread` of it;
+            // or, by the method's own slope, at least `d` less `slope |q - p|`.
+            let exact = d - 2.0 * spread - 1e-6 - reach;
+            let own = (d - 1e-6 - reach) / slope;
+            travel = travel.max(exact).max(own);
         }
-        (hit, clearance)
+        (hit, Clearance::about(*p, reach, travel))
     }
 
     /// Signed distance and outward normal by `method`, or `None` when `p` is farther than
@@ -615,6 +627,58 @@ impl MeshBody {
             (CollisionMethod::Field, _) => self.field.query(self, p),
             _ => self.signed_distance(p).map(|(d, n, _)| (d, n)),
         }
+    }
+}
+
+/// What a distance query tells about the answers near the place it was asked
+/// ([`MeshBody::distance_within_clearance`]): within its travel of that place, the method's answer
+/// for its reach, or a smaller one, is `None` or at least that reach. A caller that keeps it need
+/// not ask again there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clearance {
+    at: Point,
+    reach: Real,
+    /// The travel squared; negative when none is known.
+    travel_squared: Real,
+}
+
+impl Clearance {
+    /// Nothing known: no place is kept out of any reach.
+    pub const NONE: Self = Self {
+        at: Point::new(0.0, 0.0, 0.0),
+        reach: Real::NEG_INFINITY,
+        travel_squared: -1.0,
+    };
+
+    /// Within `travel` of `at`, answers are `None` or at least `reach` (none known when
+    /// `travel` is negative or not a number).
+    fn about(at: Point, reach: Real, travel: Real) -> Self {
+        if travel >= 0.0 {
+            Self {
+                at,
+                reach,
+                travel_squared: travel * travel,
+            }
+        } else {
+            Self::NONE
+        }
+    }
+
+    /// Whether the answer at `q` (the body's frame) is known to be `None` or at least `reach`.
+    #[inline]
+    pub fn keeps_out(&self, q: &Point, reach: Real) -> bool {
+        reach <= self.reach && (q - self.at).norm_squared() <= self.travel_squared
+    }
+
+    /// How far from where it was asked the clearance holds (m), if it holds anywhere.
+    pub fn travel(&self) -> Option<Real> {
+        (self.travel_squared >= 0.0).then(|| self.travel_squared.sqrt())
+    }
+}
+
+impl Default for Clearance {
+    fn default() -> Self {
+        Self::NONE
     }
 }
 
@@ -917,52 +981,78 @@ mod tests {
         assert!(skipped > 1000, "{skipped} queries skipped");
     }
 
-    /// On closed bodies the clearance `distance_within_clearance` finds at a point bounds the
-    /// answer at every point near it, less the way there, by both methods, whether the near
-    /// field turned the point away or the method answered; and a field value is within half a
-    /// cell diagonal of the exact distance, which that bound takes.
+    /// On closed bodies the clearance `distance_within_clearance` finds at a point keeps every
+    /// point within its travel out of the reach it was asked for, by both methods, whether the
+    /// near field turned the point away or the method answered; points lying within a few
+    /// millimetres of the surface keep one by the field's own slope (the exact distance's bound,
+    /// less a cell diagonal, gives them none); and a field value is within half a cell diagonal
+    /// of the exact distance, which that bound takes.
     #[test]
-    fn clearances_bound_the_answers_about_them() {
+    fn clearances_keep_the_answers_about_them_out_of_reach() {
         let (head, torus) = closed_test_bodies();
         let mut rng = SplitMix::new(5);
-        let (mut turned_away, mut answered) = (0, 0);
+        let reach = 0.004;
+        let (mut turned_away, mut answered, mut by_slope, mut kept) = (0, 0, 0, 0);
         for body in [&head, &torus] {
-            let half_diagonal = body.field.spacing() * 3f32.sqrt() * 0.5;
-            for _ in 0..3000 {
+            let diagonal = body.field.spacing() * 3f32.sqrt();
+            for k in 0..4000 {
                 let (s, _) = rng.surface_point(body.bvh.triangles(), 0.0);
-                let mut offset = |scale: Real| {
+                let direction = |rng: &mut SplitMix| {
                     Vector::new(
                         rng.range(-1.0, 1.0),
                         rng.range(-1.0, 1.0),
                         rng.range(-1.0, 1.0),
-                    ) * scale
+                    )
                 };
-                let p = s + offset(0.03);
-                let q = p + offset(0.01);
+                // Half the points within a few millimetres of the surface, where hair rests.
+                let scale = if k % 2 == 0 { 0.03 } else { 0.006 };
+                let p = s + direction(&mut rng) * scale;
                 if let (Some((f, _)), Some((e, _, _))) = (
                     body.distance(CollisionMethod::Field, &p),
                     body.signed_distance(&p),
                 ) {
-                    assert!((f - e).abs() <= half_diagonal, "{p:?}: {f} against {e}");
+                    assert!((f - e).abs() <= 0.5 * diagonal, "{p:?}: {f} against {e}");
                 }
+                let (hit, clearance) =
+                    body.distance_within_clearance(CollisionMethod::Maps, &p, 0.0);
+                assert_eq!(hit, body.distance(CollisionMethod::Maps, &p));
+                assert_eq!(clearance.travel(), None, "Maps at {p:?}");
                 for method in [CollisionMethod::Bvh, CollisionMethod::Field] {
-                    let (hit, b) = body.distance_within_clearance(method, &p, 0.004);
-                    assert_eq!(hit, body.distance_within(method, &p, 0.004));
-                    if b == Real::NEG_INFINITY {
+                    let (hit, clearance) = body.distance_within_clearance(method, &p, reach);
+                    assert_eq!(hit, body.distance_within(method, &p, reach));
+                    let Some(travel) = clearance.travel() else {
+                        assert!(!clearance.keeps_out(&p, 0.0));
                         continue;
-                    }
+                    };
                     turned_away += usize::from(hit.is_none());
                     answered += usize::from(hit.is_some());
-                    if let Some((d, _)) = body.distance(method, &q) {
-                        let floor = b - (q - p).norm();
-                        assert!(d >= floor, "{method:?} {p:?} {q:?}: {d} below {floor}");
+                    if let (CollisionMethod::Field, Some((d, _))) = (method, hit) {
+                        by_slope += usize::from(d - diagonal - reach < 0.0);
+                    }
+                    assert!(!clearance.keeps_out(&p, reach * 1.01), "a wider reach");
+                    // Points spread over the ball of its travel, and on its edge.
+                    for j in 0..8 {
+                        let u = direction(&mut rng)
+                            .try_normalize(1e-3)
+                            .unwrap_or(Vector::x());
+                        let share = if j < 4 { 0.999 } else { rng.range(0.0, 1.0) };
+                        let q = p + u * travel * share;
+                        if !clearance.keeps_out(&q, reach) {
+                            // Only where rounding of `q` alone takes it past the edge.
+                            assert!(travel < 1e-5 && j < 4, "{clearance:?} {q:?}");
+                            continue;
+                        }
+                        kept += 1;
+                        if let Some((d, _)) = body.distance(method, &q) {
+                            assert!(d >= reach, "{method:?} {p:?} {q:?}: {d} within {reach}");
+                        }
                     }
                 }
             }
         }
         assert!(
-            turned_away > 1000 && answered > 1000,
-            "{turned_away} {answered}"
+            turned_away > 1000 && answered > 1000 && by_slope > 300 && kept > 30_000,
+            "{turned_away} {answered} {by_slope} {kept}"
         );
     }
 
