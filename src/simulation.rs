@@ -175,7 +175,7 @@ impl Simulation {
         let loads = (scene.dynamics.gravity.into(), scene.dynamics.torque);
         let (rest, collision) = (scene.groom_is_its_rest().then_some(loads), &scene.collision);
         let (st, bd) = (&mut state, body.as_ref());
-        let (sections, _, support) = make_groom_rest(st, bd, &front_nodes, collision, rest)?;
+        let (sections, _, constraint) = make_groom_rest(st, bd, &front_nodes, collision, rest)?;
         for s in 0..hierarchy.node_count() as u32 {
             state.set_active(SkeletonId(s), front_nodes.binary_search(&s).is_ok());
         }
@@ -211,7 +211,7 @@ impl Simulation {
             sections,
             localization,
             hair_hair: HairHairStage::new(),
-            body_constraint: BodyConstraint::with_support(support),
+            body_constraint: constraint,
             parts: Vec::new(),
             salon,
             node_radius,

@@ -87,6 +87,12 @@ impl BodyConstraint {
         }
     }
 
+    /// Takes `support` as the body's pushes (none when it is empty), from the next step on.
+    pub(crate) fn set_support(&mut self, support: BodySupport) {
+        self.support = Some(support).filter(|s| !s.is_empty());
+        self.supported_step = None;
+    }
+
     /// The hard constraint (Kurihara et al. §4's reaction constraint, made positional): every
     /// front node closer to the body than its radius is moved out along the body's normal and
     /// loses its velocity into the body, with friction. The node stays on the sphere about the

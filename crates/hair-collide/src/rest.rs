@@ -44,23 +44,27 @@ const CAP_SHARE: Real = 0.5;
 /// hair-hair model, the radius cap of the returned sections of `front` set where they cross
 /// closer than their radii; then every skeleton's rest angles solved for the settled shape.
 /// With no `loads` (the groom not made its rest) it returns plain sections and changes nothing.
+///
+/// It also returns the body constraint for the steps to come: with the body's pushes on the hair
+/// lying on it, and the clearances its own pass found about every node, so that the first step
+/// does not ask the body again where the hair has not moved.
 pub fn make_groom_rest(
     state: &mut StrandState,
     body: Option<&MeshBody>,
     front: &[u32],
     settings: &CollisionSettings,
     loads: Option<(Vector, TorqueModel)>,
-) -> Result<(Sections, GroomRestReport, Option<BodySupport>), CollideError> {
+) -> Result<(Sections, GroomRestReport, BodyConstraint), CollideError> {
     let mut report = GroomRestReport::default();
     let mut sections = Sections::default();
+    let mut constraint = BodyConstraint::new();
     let Some((gravity, torque)) = loads else {
-        return Ok((sections, report, None));
+        return Ok((sections, report, constraint));
     };
     if let Some(body) = body {
         let all = all_skeletons(state);
         // After the depenetration ramp: a node inside goes straight out.
         let step = u64::from(settings.depenetration_steps);
-        let mut constraint = BodyConstraint::new();
         report.body_contacts = constraint
             .apply(state, body, &all, step, settings)?
             .contacts;
@@ -85,7 +89,8 @@ pub fn make_groom_rest(
     if let Some(body) = body {
         support.apply(state, body, settings)?;
     }
-    Ok((sections, report, Some(support)))
+    constraint.set_support(support);
+    Ok((sections, report, constraint))
 }
 
 fn all_skeletons(state: &StrandState) -> Vec<u32> {
