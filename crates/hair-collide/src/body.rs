@@ -55,6 +55,9 @@ pub struct BodyConstraint {
     /// Per node, during the depenetration ramp: how far its sphere may still reach into the
     /// body at the end of this step (m).
     allowance: Vec<Real>,
+    /// Whether any node is still held by an allowance after the last ramp step: once none
+    /// is, the ramp is over.
+    ramp_held: bool,
     corrections: Vec<NodeCorrection>,
     constraints: Vec<VelocityConstraint>,
     /// A moving part's surface velocity (head frame) at each constraint's node.
@@ -113,7 +116,8 @@ impl BodyConstraint {
     /// start of that step, and never more than it was allowed the step before, so whatever
     /// pushes it back in, it is held to the ramp; a node next to one still allowed inside is
     /// allowed that, less the segment between them. Every other node, including one that
-    /// reaches the body during the ramp, is resolved at once. On the ramp the passes test every
+    /// reaches the body during the ramp, is resolved at once. The ramp ends early, and the
+    /// sweeps begin, once no node is allowed inside (at once when none starts inside). On the ramp the passes test every
     /// node where the last pass left it (the allowances are set on the first), refit the
     /// skeletons they moved, and repeat on them until no node is deeper than the skin
     /// ([`CollisionSettings::contact_skin`] of the tolerance) beyond its allowance, or [`CollisionSettings::body_passes`] have run.
@@ -187,7 +191,7 @@ impl BodyConstraint {
         let ramp = settings.depenetration_steps as u64;
         // The share of its reach into the body a node that started inside may keep at the end
         // of this ramp step (see above).
-        let in_ramp = step < ramp;
+        let in_ramp = step < ramp && (step == 0 || self.ramp_held);
         let keep = if in_ramp {
             (ramp - step - 1) as Real / (ramp - step) as Real
         } else {
@@ -566,6 +570,9 @@ impl BodyConstraint {
             }
             if pass == 0 {
                 contacts = self.constraints.len();
+                if in_ramp {
+                    self.ramp_held = self.allowance.iter().any(|&a| a > 0.0);
+                }
             }
             let done = self.corrections.is_empty()
                 || pass == settings.max_body_passes
@@ -972,6 +979,45 @@ mod tests {
             }
         }
         roots
+    }
+
+    /// The ramp lasts only while a node is allowed inside: after a first step with the hair
+    /// clear of the body, the next step through the body's tube moves the hair exactly as a
+    /// step after the ramp does; after a first step with the hair through the tube, it does not
+    /// (the nodes are held to the ramp).
+    #[test]
+    fn the_ramp_ends_once_no_node_is_held() {
+        let centre = Point::new(0.0, -0.1, 0.0);
+        let body = torus(centre);
+        let settings = CollisionSettings::default();
+        let after = u64::from(settings.depenetration_steps);
+        let through = roots_around(centre);
+        let clear = roots_around(centre + Vector::new(0.0, 1.0, 0.0));
+        let front: Vec<u32> = (0..through.len() as u32).collect();
+        let step_after_ramp = || {
+            let mut state = strands(&through);
+            let mut constraint = BodyConstraint::new();
+            let report = constraint
+                .apply(&mut state, &body, &front, after, &settings)
+                .unwrap();
+            assert!(report.contacts > 100, "{report:?}");
+            bits(&state)
+        };
+        let second_step = |first: &[(Point, Real, Real)]| {
+            let mut constraint = BodyConstraint::new();
+            let mut state = strands(first);
+            constraint
+                .apply(&mut state, &body, &front, 0, &settings)
+                .unwrap();
+            let mut state = strands(&through);
+            constraint
+                .apply(&mut state, &body, &front, 1, &settings)
+                .unwrap();
+            bits(&state)
+        };
+        let expected = step_after_ramp();
+        assert!(second_step(&clear) == expected, "the ramp went on");
+        assert!(second_step(&through) != expected, "the ramp ended");
     }
 
     /// One constraint applied in turn to two bodies a little apart, to a clone of one whose
