@@ -134,6 +134,32 @@ impl DistanceField {
         d
     }
 
+    /// The samples at the eight corners of the cell whose lowest corner is `(x, y, z)`, x
+    /// fastest, computing those not yet known. A sample's place in the bricks is a sum of
+    /// one term per axis, so the eight places take six terms and the known samples are read
+    /// without working out a brick each.
+    #[inline]
+    pub(crate) fn corners(&self, body: &MeshBody, x: usize, y: usize, z: usize) -> [Real; 8] {
+        let [bx, by] = self.bricks;
+        let along = |v: usize, brick: usize, within: usize| (v >> 2) * brick + (v & 3) * within;
+        let ix = [along(x, 64, 1), along(x + 1, 64, 1)];
+        let iy = [along(y, 64 * bx, 4), along(y + 1, 64 * bx, 4)];
+        let iz = [along(z, 64 * bx * by, 16), along(z + 1, 64 * bx * by, 16)];
+        let mut bits = [UNKNOWN; 8];
+        for (i, b) in bits.iter_mut().enumerate() {
+            let at = ix[i & 1] + iy[(i >> 1) & 1] + iz[i >> 2];
+            if let Some(layer) = self.samples.get(at >> 4) {
+                *b = layer.0[at & 15].load(Ordering::Relaxed);
+            }
+        }
+        if bits.contains(&UNKNOWN) {
+            return std::array::from_fn(|i| {
+                self.sample(body, x + (i & 1), y + ((i >> 1) & 1), z + (i >> 2))
+            });
+        }
+        bits.map(Real::from_bits)
+    }
+
     /// Interpolated signed distance (negative inside) and outward normal at `p`; `None` outside
     /// the field (farther than its margin from the body).
     pub fn query(&self, body: &MeshBody, p: &Point) -> Option<(Real, Vector)> {
@@ -150,10 +176,7 @@ impl DistanceField {
             return None;
         }
         let (tx, ty, tz) = (q.x - x as Real, q.y - y as Real, q.z - z as Real);
-        let mut c = [0.0 as Real; 8];
-        for (i, v) in c.iter_mut().enumerate() {
-            *v = self.sample(body, x + (i & 1), y + ((i >> 1) & 1), z + (i >> 2));
-        }
+        let c = self.corners(body, x, y, z);
         if c.contains(&Real::MAX) {
             return None;
         }

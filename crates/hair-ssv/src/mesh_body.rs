@@ -886,6 +886,22 @@ mod tests {
             let error = field.measure_error(body, 4_000, 0.01);
             let bound = field.spacing() * 3f32.sqrt();
             assert!(error > 0.0 && error <= bound, "{error} m against {bound} m");
+            // A cell's corners read together are the samples read one by one, whether some
+            // were still to compute (the first time) or all were known (the second).
+            for z in 0..nz - 1 {
+                for y in 0..ny - 1 {
+                    for x in 0..nx - 1 {
+                        for _ in 0..2 {
+                            let together = field.corners(body, x, y, z).map(Real::to_bits);
+                            let one_by_one: [u32; 8] = std::array::from_fn(|i| {
+                                let (dx, dy, dz) = (i & 1, (i >> 1) & 1, i >> 2);
+                                field.sample(body, x + dx, y + dy, z + dz).to_bits()
+                            });
+                            assert_eq!(together, one_by_one, "cell ({x}, {y}, {z})");
+                        }
+                    }
+                }
+            }
         }
     }
 
