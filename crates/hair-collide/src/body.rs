@@ -241,15 +241,56 @@ impl BodyConstraint {
             .resize(state.node_count(), SweepHit::default());
         // The deepest node centre among the nodes the sweeps left (they no longer move).
         let mut swept_depth: Real = 0.0;
+        // The chains of this application (`[skeleton, first node asked]`) and each skeleton's
+        // radius: the sweep holds the state, so its callback reads them from here.
+        self.sweep_chains.clear();
+        for &n in front {
+            let id = SkeletonId(n);
+            // Not one frozen by localization: it has not moved since it was last resolved.
+            if state.is_active(id) {
+                self.sweep_chains.push([n, u32::from(!state.is_free(id))]);
+            }
+        }
+        let (radius, shared) = (&mut self.sweep_radius, &*state);
+        radius.clear();
+        radius.extend((0..shared.skeleton_count() as u32).map(|n| {
+            let r = shared.nodes(SkeletonId(n));
+            shared.radius().get(r.start).copied().unwrap_or(0.0)
+        }));
+        // Each chain's first node that its clearance does not keep out of reach (`u32::MAX`:
+        // none), so that neither the sweeps nor the ramp's first pass test the nodes before it
+        // one by one: a test would find each out of reach, move none and keep its clearance.
+        // (The first pass is the ramp's only one that queries by the scene's method.)
+        let clear_first = !self.clearance_off && (!in_ramp || settings.body_passes > 0);
+        if clear_first {
+            let (hits, positions) = (&self.sweep_hits, state.positions());
+            let (radius, shared) = (&self.sweep_radius, &*state);
+            self.sweep_chains.par_iter_mut().for_each(|chain| {
+                let [n, from] = *chain;
+                let r = shared.nodes(SkeletonId(n));
+                let reach = radius[n as usize];
+                let clear = |i: &usize| {
+                    let c = hits[*i].clearance;
+                    c.keeps_out(&body.local(&positions[*i]), reach)
+                };
+                chain[1] = (r.start + from as usize..r.end)
+                    .find(|i| !clear(i))
+                    .map_or(u32::MAX, |i| (i - r.start) as u32);
+            });
+        }
         let first_pass = if in_ramp {
-            for &n in front {
+            for &[n, first] in &self.sweep_chains {
                 let id = SkeletonId(n);
-                if !state.is_active(id) {
-                    // Frozen by localization: it has not moved since it was last resolved.
-                    continue;
+                let r = state.nodes(id);
+                let from = r.start + usize::from(!state.is_free(id));
+                // The nodes kept out of reach are allowed nothing, as the pass would allow
+                // them (a root is allowed nothing, so neither is a node after it).
+                let first = r.start.saturating_add(first as usize).min(r.end);
+                let held = self.allowance.len();
+                if from < first.min(held) {
+                    self.allowance[from..first.min(held)].fill(0.0);
                 }
-                let from = u32::from(!state.is_free(id));
-                push_body_nodes(&mut self.body_nodes, &*state, n, from);
+                push_body_nodes(&mut self.body_nodes, &*state, n, (first - r.start) as u32);
             }
             0
         } else {
@@ -257,45 +298,12 @@ impl BodyConstraint {
             // the corrections before it put it, in parallel over skeletons. One sweep leaves
             // a skeleton with every node tested where it ends except the corrected ones (the
             // turn onto the sphere about the parent can leave one a little inside), so the next
-            // sweep starts at each skeleton's first corrected node.
-            self.sweep_chains.clear();
-            for &n in front {
-                let id = SkeletonId(n);
-                if state.is_active(id) {
-                    self.sweep_chains.push([n, u32::from(!state.is_free(id))]);
-                }
-            }
+            // sweep starts at each skeleton's first corrected node. A chain with no node left
+            // to ask is not swept: the sweep would record those nodes as out of reach without
+            // a query and move none of them (what it records there is read this step only from
+            // a chain's first contact on, and their clearances stay as they are).
+            self.sweep_chains.retain(|c| c[1] != u32::MAX);
             self.sweep_chains.sort_unstable();
-            // The sweep holds the state, so the callback reads each skeleton's radius from here.
-            let (radius, shared) = (&mut self.sweep_radius, &*state);
-            radius.clear();
-            radius.extend((0..shared.skeleton_count() as u32).map(|n| {
-                let r = shared.nodes(SkeletonId(n));
-                shared.radius().get(r.start).copied().unwrap_or(0.0)
-            }));
-            if !self.clearance_off {
-                // Each chain starts at its first node that its clearance does not keep out of
-                // reach, and a chain with none is not swept: the sweep would record those nodes
-                // as out of reach without a query and move none of them (what it records there
-                // is read this step only from a chain's first contact on, and their clearances
-                // stay as they are). Most chains, most steps, in one pass without the sweep's
-                // per-node work.
-                let (hits, positions) = (&self.sweep_hits, state.positions());
-                let (radius, shared) = (&self.sweep_radius, &*state);
-                self.sweep_chains.par_iter_mut().for_each(|chain| {
-                    let [n, from] = *chain;
-                    let r = shared.nodes(SkeletonId(n));
-                    let reach = radius[n as usize];
-                    let clear = |i: &usize| {
-                        let c = hits[*i].clearance;
-                        c.keeps_out(&body.local(&positions[*i]), reach)
-                    };
-                    chain[1] = (r.start + from as usize..r.end)
-                        .find(|i| !clear(i))
-                        .map_or(u32::MAX, |i| (i - r.start) as u32);
-                });
-                self.sweep_chains.retain(|c| c[1] != u32::MAX);
-            }
             if still && !record_all {
                 for &[n, _] in &self.sweep_chains {
                     let r = state.nodes(SkeletonId(n));
@@ -514,7 +522,9 @@ impl BodyConstraint {
                     // A node next to one still allowed inside may be held inside by it, less
                     // the segment between them (its sphere about that node reaches no farther
                     // out). The nodes of a skeleton come root first, so the one before is done.
-                    if let Some(&b) = self.allowance.get(bn.prev as usize) {
+                    if let Some(&b) = self.allowance.get(bn.prev as usize)
+                        && b > 0.0
+                    {
                         let len = (positions[node] - positions[bn.prev as usize]).norm();
                         a = a.max(b - len);
                     }
