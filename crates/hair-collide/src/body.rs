@@ -279,6 +279,13 @@ impl BodyConstraint {
             });
         }
         let first_pass = if in_ramp {
+            // Room for every node, as on the first step: a ramp starting again (a reset) may
+            // find fewer nodes clear than the first did, and must not allocate.
+            let nodes = state.node_count();
+            self.body_nodes
+                .reserve(nodes.saturating_sub(self.body_nodes.len()));
+            self.body_hits
+                .reserve(nodes.saturating_sub(self.body_hits.len()));
             for &[n, first] in &self.sweep_chains {
                 let id = SkeletonId(n);
                 let r = state.nodes(id);
