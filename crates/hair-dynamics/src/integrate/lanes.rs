@@ -37,6 +37,8 @@ use std::cell::RefCell;
 use std::ops::{Add, Mul, Sub};
 use wide::f32x8;
 
+mod ros3;
+
 /// Strands advanced together.
 pub(super) const LANES: usize = 8;
 
@@ -202,6 +204,8 @@ struct LaneScratch {
     out: Vec<NodeOut>,
     /// The group's per-node inputs in lane layout (`gather`, `gather3`).
     nodes: Vec<NodeIn>,
+    /// ROS3's joints (`ros3`).
+    stages: Vec<ros3::StageJoint>,
 }
 
 /// A node's inputs of the group's eight strands, lane by lane: gathered from the state's
@@ -249,6 +253,7 @@ impl LaneScratch {
             self.joints.resize(n, JointSweep::default());
             self.out.resize(n, NodeOut::default());
             self.nodes.resize(n, NodeIn::default());
+            self.stages.resize(n, ros3::StageJoint::default());
         }
     }
 }
@@ -274,7 +279,7 @@ pub(super) fn covers(sh: &Shared<'_>) -> bool {
 pub(super) fn covers_integrator(s: &StepSettings) -> bool {
     matches!(
         s.integrator,
-        Integrator::ImplicitCoupled | Integrator::ImplicitBdf2
+        Integrator::ImplicitCoupled | Integrator::ImplicitBdf2 | Integrator::ImplicitRos3
     ) && s.solver == LinearSolver::Structured
 }
 
@@ -287,13 +292,15 @@ pub(super) enum LaneOutcome {
     Declined,
     /// Went non-finite: redo by the scalar step, which restores and reports it.
     NonFinite,
-    /// BDF2's error estimate exceeded its bound: redo by the scalar step, which falls back to
-    /// the coupled step as its own BDF2 step does, and counts it.
+    /// BDF2's or ROS3's error estimate exceeded its bound: redo by the scalar step, which falls
+    /// back to the coupled step as its own BDF2 step does, or splits the ROS3 step as its guard
+    /// does, and counts it.
     Redo,
 }
 
 /// Advances the strands `members` (local indices into `run`, all attached, all of `n` nodes, at
-/// most [`LANES`]) by one coupled step, writing back those that succeed.
+/// most [`LANES`]) by one step of the integrator (the coupled step, BDF2 or ROS3), writing back
+/// those that succeed.
 pub(super) fn step_group(
     run: &mut Run<'_>,
     sh: &Shared<'_>,
@@ -304,7 +311,11 @@ pub(super) fn step_group(
         let mut guard = cell.borrow_mut();
         // Grown already by `grow_every_worker`: this allocates nothing.
         guard.reserve(n);
-        step_group_in(run, sh, members, n, &mut guard)
+        if sh.settings.integrator == Integrator::ImplicitRos3 {
+            ros3::step_group_in(run, sh, members, n, &mut guard)
+        } else {
+            step_group_in(run, sh, members, n, &mut guard)
+        }
     })
 }
 
@@ -1068,19 +1079,41 @@ fn step_group_in(
             (rs.prev_position, rs.prev_velocity) = (rs.position, rs.velocity);
         }
     }
+    publish_nodes(run, &ls.out, &done, &in_run, n);
+    for l in (0..LANES).filter(|&l| done[l]) {
+        run.roots[local[l]].history = if bdf2 {
+            let rs = &run.roots[local[l]];
+            bdf2::history_tag_of(m2, coordinates(run, in_run[l], n), rs, settings.dt)
+        } else {
+            0
+        };
+    }
+    outcome
+}
+
+/// The end-of-step state `out` of the group's nodes `1..n` into the run, for every lane that is
+/// `done`.
+#[inline(always)]
+fn publish_nodes(
+    run: &mut Run<'_>,
+    out: &[NodeOut],
+    done: &[bool; LANES],
+    in_run: &[usize; LANES],
+    n: usize,
+) {
     if n > 8 {
         // Eight nodes at a time, transposed back to strand by strand: each lane's eight values
         // of a field are one store.
         for start in blocks(n - 1).map(|b| b + 1) {
-            let out = &ls.out[start..start + 8];
+            let out = &out[start..start + 8];
             let at: [usize; LANES] = std::array::from_fn(|l| in_run[l] + start);
-            scatter(&done, &at, &mut *run.theta, |k| out[k].q[0]);
-            scatter(&done, &at, &mut *run.phi, |k| out[k].q[1]);
-            scatter(&done, &at, &mut *run.omega_theta, |k| out[k].w[0]);
-            scatter(&done, &at, &mut *run.omega_phi, |k| out[k].w[1]);
-            scatter(&done, &at, &mut *run.length, |k| out[k].len);
+            scatter(done, &at, &mut *run.theta, |k| out[k].q[0]);
+            scatter(done, &at, &mut *run.phi, |k| out[k].q[1]);
+            scatter(done, &at, &mut *run.omega_theta, |k| out[k].w[0]);
+            scatter(done, &at, &mut *run.omega_phi, |k| out[k].w[1]);
+            scatter(done, &at, &mut *run.length, |k| out[k].len);
             scatter3(
-                &done,
+                done,
                 |l, flat| {
                     let dst = &mut run.positions[at[l]..at[l] + 8];
                     for (p, c) in dst.iter_mut().zip(flat.chunks_exact(3)) {
@@ -1090,7 +1123,7 @@ fn step_group_in(
                 |k| out[k].pos,
             );
             scatter3(
-                &done,
+                done,
                 |l, flat| {
                     let dst = &mut run.velocities[at[l]..at[l] + 8];
                     for (v, c) in dst.iter_mut().zip(flat.chunks_exact(3)) {
@@ -1104,7 +1137,7 @@ fn step_group_in(
         for l in (0..LANES).filter(|&l| done[l]) {
             let base = in_run[l];
             for i in 1..n {
-                let out = &ls.out[i];
+                let out = &out[i];
                 let lane = |v: &L| v.as_array()[l];
                 let at = base + i;
                 run.theta[at] = lane(&out.q[0]);
@@ -1119,15 +1152,6 @@ fn step_group_in(
             }
         }
     }
-    for l in (0..LANES).filter(|&l| done[l]) {
-        run.roots[local[l]].history = if bdf2 {
-            let rs = &run.roots[local[l]];
-            bdf2::history_tag_of(m2, coordinates(run, in_run[l], n), rs, settings.dt)
-        } else {
-            0
-        };
-    }
-    outcome
 }
 
 /// The bend `(x, y)` in lanes: as [`crate::bend::Bend::new`].
@@ -1316,8 +1340,18 @@ mod tests {
         h: Real,
         model: TorqueModel,
     ) -> (Coordinates, usize) {
+        let (after, sc) = scalar_in(env, state, &settings(h, model, LinearSolver::Structured));
+        (after, sc.dense_fallbacks)
+    }
+
+    /// Every strand of `state` stepped once by the scalar step (`step_strand`) under `set` in
+    /// `env`: the coordinates after, and the scratch with its counts.
+    fn scalar_in(
+        env: &Environment,
+        state: &StrandState,
+        set: &StepSettings,
+    ) -> (Coordinates, Scratch<Real>) {
         let local = env.local::<Real>();
-        let set = settings(h, model, LinearSolver::Structured);
         let mut theta = state.theta.clone();
         let mut phi = state.phi.clone();
         let mut omega_theta = state.omega_theta.clone();
@@ -1355,7 +1389,7 @@ mod tests {
                 &state.k_stretch[g.clone()],
                 &p,
                 &local,
-                &set,
+                set,
                 None,
                 &mut sc,
             );
@@ -1373,7 +1407,7 @@ mod tests {
             rates: omega_theta.into_iter().chain(omega_phi).collect(),
             lengths,
         };
-        (after, sc.dense_fallbacks)
+        (after, sc)
     }
 
     /// One step through `StrandState::step` (the lanes for the structured solver, the scalar
@@ -1727,5 +1761,150 @@ mod tests {
                 "phi {i}"
             );
         }
+    }
+    /// One ROS3 step of `state` through `StrandState::step` (the lanes) and by the scalar ROS3
+    /// step, strand by strand: the largest differences of the angles (rad) and of the rates
+    /// (rad/s, over the largest rate, at least 1 rad/s), the strands the lanes left to the scalar
+    /// step's guard, and the scalar step's own splits.
+    fn ros3_gaps(
+        env: &Environment,
+        state: &StrandState,
+        h: Real,
+        model: TorqueModel,
+    ) -> (Real, Real, usize, usize) {
+        let set = StepSettings {
+            integrator: Integrator::ImplicitRos3,
+            ..settings(h, model, LinearSolver::Structured)
+        };
+        let mut lanes = state.clone();
+        let report = lanes.step(env, &set).expect("a finite step");
+        let (scalar, sc) = scalar_in(env, state, &set);
+        let angles: Vec<Real> = lanes.theta.iter().chain(&lanes.phi).copied().collect();
+        let rates: Vec<Real> = lanes
+            .omega_theta
+            .iter()
+            .chain(&lanes.omega_phi)
+            .copied()
+            .collect();
+        let fastest = scalar.rates.iter().fold(1.0, |m: Real, w| m.max(w.abs()));
+        (
+            worst(&angles, &scalar.angles),
+            worst(&rates, &scalar.rates) / fastest,
+            report.rosenbrock_splits,
+            sc.rosenbrock_splits,
+        )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(64)))]
+
+        /// ROS3 in the lanes gives the scalar ROS3 step's angles to 1e-5 rad and rates to 1e-4
+        /// of the largest, on random strands as in the coupled step's proptest (1 to 19 strands,
+        /// 2 to 40 nodes, bent or near straight, soft to stiff, both load models, steps from 1 to
+        /// 20 ms), and leaves to the scalar step's guard exactly the strands that guard splits.
+        #[test]
+        fn ros3_in_lanes_agrees_with_the_scalar_ros3_step(
+            count in 1usize..20, n in 2usize..40, seed in any::<u64>(),
+            straight in any::<bool>(), log_k in -6.0f32..0.0, h in 1e-3f32..0.02,
+            chain in any::<bool>()) {
+            let bend = if straight { 1e-5 } else { 1.2 };
+            let state = strands(count, n, seed, bend, 2.0, 10f32.powf(log_k), 0.0);
+            let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
+            let (angles, rates, lane_splits, scalar_splits) =
+                ros3_gaps(&Environment::default(), &state, h, model);
+            prop_assert!(angles <= 1e-5, "angles differ by {angles:e} rad");
+            prop_assert!(rates <= 1e-4, "rates differ by {rates:e} of the largest");
+            prop_assert_eq!(lane_splits, scalar_splits);
+        }
+    }
+
+    /// ROS3 in the lanes where they do the work (gentle strands, short steps: the guard trusts
+    /// every step in one piece), under loads, in wind and force fields, with stretch springs:
+    /// the scalar ROS3 step's angles to 1e-5 rad and rates to 1e-4 of the largest, and the
+    /// step is not the coupled step's.
+    #[test]
+    fn ros3_in_lanes_agrees_with_the_scalar_ros3_step_in_wind_under_loads() {
+        use crate::{ForceField, Wind};
+        let env = Environment {
+            wind: Wind {
+                direction: Vector::new(0.3, 0.1, -1.0),
+                speed: 4.0,
+                gust: 0.3,
+                turbulence: 0.4,
+                drag: 2e-3,
+                ..Wind::default()
+            },
+            fields: vec![ForceField::Uniform {
+                acceleration: Vector::new(1.0, 0.0, 0.0),
+            }],
+            time: 0.3,
+            ..Environment::default()
+        };
+        let h = 2e-3;
+        for seed in 0..6u64 {
+            let model = if seed % 2 == 0 {
+                TorqueModel::Chain
+            } else {
+                TorqueModel::Local
+            };
+            let mut state = strands(19, 12 + seed as usize, seed, 0.4, 0.5, 1e-4, 0.002);
+            for s in (0..state.skeleton_count()).step_by(2) {
+                for i in state.nodes(crate::SkeletonId(s as u32)) {
+                    state.k_stretch_mut()[i] = 50.0;
+                }
+            }
+            for (env, what) in [(&Environment::default(), "still air"), (&env, "wind")] {
+                let (angles, rates, lane_splits, scalar_splits) = ros3_gaps(env, &state, h, model);
+                assert!(angles <= 1e-5, "seed {seed}, {what}: angles {angles:e} rad");
+                assert!(rates <= 1e-4, "seed {seed}, {what}: rates {rates:e}");
+                assert_eq!(
+                    (lane_splits, scalar_splits),
+                    (0, 0),
+                    "seed {seed}, {what}: splits"
+                );
+            }
+            let (coupled, _) = stepped(&state, h, model, LinearSolver::Structured);
+            let mut ros3 = state.clone();
+            ros3.step(
+                &Environment::default(),
+                &StepSettings {
+                    integrator: Integrator::ImplicitRos3,
+                    ..settings(h, model, LinearSolver::Structured)
+                },
+            )
+            .expect("a finite step");
+            let ros3: Vec<Real> = ros3.theta.iter().chain(&ros3.phi).copied().collect();
+            assert!(
+                worst(&ros3, &coupled) > 1e-6,
+                "seed {seed}: ROS3 is the coupled step"
+            );
+        }
+    }
+
+    /// At the steps of a frame and shorter the guard splits some strands' steps and not others:
+    /// the lanes leave those to the scalar step, which splits them as it would have (the same
+    /// count, the same answers), and keep the others.
+    #[test]
+    fn ros3_lanes_leave_the_steps_their_guard_distrusts_to_the_scalar_step() {
+        let mut split = 0;
+        for seed in 0..8u64 {
+            let h = 1.0 / (60 << (seed % 4)) as Real;
+            let mut state = strands(16, 20, seed, 0.3, 1.0, 1e-4, 0.0);
+            // Strand by strand, faster and slower.
+            for s in 0..state.skeleton_count() {
+                for i in state.nodes(crate::SkeletonId(s as u32)) {
+                    state.omega_theta_mut()[i] *= (s % 4) as Real;
+                    state.omega_phi_mut()[i] *= (s % 4) as Real;
+                }
+            }
+            let (angles, rates, lane_splits, scalar_splits) =
+                ros3_gaps(&Environment::default(), &state, h, TorqueModel::Chain);
+            assert!(angles <= 1e-5, "seed {seed}: angles {angles:e} rad");
+            assert!(rates <= 1e-4, "seed {seed}: rates {rates:e}");
+            assert_eq!(lane_splits, scalar_splits, "seed {seed}: splits");
+            split += lane_splits;
+            println!("seed {seed}, h {h}: {lane_splits} of 16 split");
+        }
+        assert!(split > 0 && split < 128, "{split} of 128 strands split");
     }
 }
