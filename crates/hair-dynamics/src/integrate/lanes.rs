@@ -1907,4 +1907,29 @@ mod tests {
         }
         assert!(split > 0 && split < 128, "{split} of 128 strands split");
     }
+    /// States stepped in parallel by the workers of one pool, as `hair stability` steps its
+    /// cells: each state's first lane step grows the lane buffers, which must not wait for the
+    /// pool's other workers from inside one (a waiting worker runs other states' first steps,
+    /// whose waits nest on its stack until it overflows, here in 256 KiB).
+    #[test]
+    fn states_stepped_in_parallel_inside_a_pool_step_without_nesting() {
+        use rayon::prelude::*;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .stack_size(256 << 10)
+            .build()
+            .expect("a pool");
+        let set = settings(1e-3, TorqueModel::Chain, LinearSolver::Structured);
+        let states: Vec<StrandState> = (0..4000)
+            .map(|s| strands(1, 20, s, 0.3, 1.0, 1e-4, 0.0))
+            .collect();
+        let stepped = pool.install(|| {
+            states
+                .into_par_iter()
+                .map(|mut state| state.step(&Environment::default(), &set).is_ok())
+                .filter(|ok| *ok)
+                .count()
+        });
+        assert_eq!(stepped, 4000);
+    }
 }

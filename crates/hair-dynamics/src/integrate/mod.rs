@@ -793,9 +793,16 @@ impl StrandState {
         let dormant = self.active.iter().filter(|a| !**a).count();
         let max_count = self.counts.iter().max().map_or(0, |&c| c as usize);
         // Every worker's lane buffers grown at once, the first time this state steps in a
-        // pool of this size or meets a longer skeleton (see `grow_every_worker`).
+        // pool of this size or meets a longer skeleton (see `grow_every_worker`). Not from
+        // inside a worker (states stepped in parallel, as `hair stability` steps its cells): a
+        // worker waiting for the broadcast runs other queued jobs meanwhile, among them other
+        // states' first steps, whose broadcasts nest on its stack until it overflows. There
+        // the buffers grow at a worker's first group.
         let warmth = (rayon::current_num_threads(), max_count);
-        if self.lanes_grown != Some(warmth) && lanes::covers_integrator(settings) {
+        if self.lanes_grown != Some(warmth)
+            && lanes::covers_integrator(settings)
+            && rayon::current_thread_index().is_none()
+        {
             lanes::grow_every_worker(max_count);
             self.lanes_grown = Some(warmth);
         }
