@@ -29,8 +29,8 @@
 //! last from two pieces: one piece is what the lanes just measured).
 
 use super::{
-    L, LANES, LaneBend, LaneOutcome, LaneScratch, M3, NodeOut, Strands, V3, gather, gather3,
-    member, nan_unless_finite, not_finite, per_lane, prefetch_slice, publish_nodes,
+    L, LANES, LaneBend, LaneOutcome, LaneScratch, M3, Strands, V3, gather, gather3, member,
+    nan_unless_finite, not_finite, per_lane, prefetch_slice, publish_nodes,
 };
 use crate::Vector;
 use crate::integrate::rosenbrock::ROS3;
@@ -56,13 +56,12 @@ pub(super) struct StageJoint {
     d: [L; 2],
     inertia: L,
     /// The stage in hand: its right-hand side's rows `b`, the elimination's offsets `e_j`, the
-    /// prefix sum `sum_{k<j} A_k r_k` of its angle half, its angle half `r` and velocity half
-    /// (the torque's shift `I r_w`).
+    /// prefix sum `sum_{k<j} A_k r_k` of its angle half `r` and that half. (Its velocity half,
+    /// the torque's shift `I r_w`, is worked out from the unknowns where it is needed.)
     b: [L; 2],
     offset: [L; 2],
     prefix: V3,
     r: [L; 2],
-    r_w: [L; 2],
     /// The last stage's unknowns and its residual check's terms `h^2 W_j^T sum_{k<j} A_k x_k`.
     x: [L; 2],
     left: [L; 2],
@@ -161,6 +160,38 @@ fn unknowns(joint: &mut StageJoint, prefix: &mut V3, h2: L) -> [L; 2] {
     x
 }
 
+/// What the loads on the nodes are made of (as `strand::forces` has them).
+struct Loads<'a> {
+    sh: &'a Shared<'a>,
+    gravity: V3,
+    drag: L,
+    has_fields: bool,
+    has_external: bool,
+}
+
+impl Loads<'_> {
+    /// The load on a node of mass `mi` at `xi` moving at `vi`, its segment along `tangent` of
+    /// length `len`, with the caller's load `external`. Not a closure: the step's closures were
+    /// left out of line.
+    #[inline(always)]
+    fn at(&self, mi: L, xi: V3, vi: V3, tangent: V3, len: L, external: V3) -> V3 {
+        let mut fi = self.gravity * mi;
+        if let Some(air) = &self.sh.lane_air {
+            let u = air.velocity(xi) - vi;
+            let across = u - tangent * u.dot(tangent);
+            fi = fi + across * (self.drag * len);
+        }
+        if self.has_fields {
+            let m: [f32; LANES] = mi.to_array();
+            fi = fi + per_lane(xi, |l, x| self.sh.env.field_force(&x, m[l]));
+        }
+        if self.has_external {
+            fi = fi + external;
+        }
+        fi
+    }
+}
+
 /// Advances the strands `members` (as [`super::step_group`]) by one ROS3 step.
 pub(super) fn step_group_in(
     run: &mut Run<'_>,
@@ -247,25 +278,12 @@ pub(super) fn step_group_in(
         }
     };
     let has_air = sh.lane_air.is_some();
-    let has_fields = !sh.env.env.fields.is_empty();
-    let drag = L::splat(sh.env.env.wind.drag);
-    // The load on node `i` at position `xi` moving at `vi`, its segment along `tangent` of
-    // length `len` (as `strand::forces` has it).
-    let load = |mi: L, xi: V3, vi: V3, tangent: V3, len: L, external: V3| {
-        let mut fi = gravity * mi;
-        if let Some(air) = &sh.lane_air {
-            let u = air.velocity(xi) - vi;
-            let across = u - tangent * u.dot(tangent);
-            fi = fi + across * (drag * len);
-        }
-        if has_fields {
-            let m: [f32; LANES] = mi.to_array();
-            fi = fi + per_lane(xi, |l, x| sh.env.field_force(&x, m[l]));
-        }
-        if has_external {
-            fi = fi + external;
-        }
-        fi
+    let loads = Loads {
+        sh,
+        gravity,
+        drag: L::splat(sh.env.env.wind.drag),
+        has_fields: !sh.env.env.fields.is_empty(),
+        has_external,
     };
 
     let nodes = &mut ls.nodes[..n];
@@ -342,7 +360,7 @@ pub(super) fn step_group_in(
         let xi = ls.pos[i];
         let node = &ls.nodes[i];
         let mi = node.mass + node.wetness;
-        let fi = load(mi, xi, ls.vel[i], ls.tangent[i], len, node.force);
+        let fi = loads.at(mi, xi, ls.vel[i], ls.tangent[i], len, node.force);
         let seg = xi - pivot;
         let rp = rest_next;
         let rc = ls.nodes[i - 1].rest_point;
@@ -434,28 +452,30 @@ pub(super) fn step_group_in(
         joint.g = g;
     }
 
-    // Pass 4, root to tip: the first stage's unknowns `U_0` (`r = w`), the second stage's state
-    // `y_n + U_0` and its kinematics, and its right-hand side `r = w + U_0w + c_10 / h U_0q`,
-    // `r_w = c_10 / h U_0w`, with the prefix sums of `A r`.
+    // Pass 4, root to tip: the first stage's unknowns `U_0` (`r = w`) and the second stage's
+    // right-hand side `r = w + U_0w + c_10 / h U_0q`, `r_w = c_10 / h U_0w`, with the prefix
+    // sums of `A r`; then, in a second loop, the kinematics at the second stage's state
+    // `y_n + U_0` (one loop carried more sums than there are registers).
     let mut prefix_x = V3::default();
     let mut prefix_r = V3::default();
-    let mut rot = root_rot;
-    let mut omega = V3::default();
-    let mut pos = root_pos;
-    let mut vel = V3::default();
-    for i in 1..n {
-        let joint = &mut joints[i - 1];
+    for joint in joints.iter_mut() {
         let x = unknowns(joint, &mut prefix_x, hg2);
-        let (q, w) = (joint.q, joint.w);
+        let w = joint.w;
         let uq = [hg * (w[0] + x[0]), hg * (w[1] + x[1])];
-        let q_stage = [q[0] + uq[0], q[1] + uq[1]];
         let w_stage = [w[0] + x[0], w[1] + x[1]];
         let r = [w_stage[0] + c10 * uq[0], w_stage[1] + c10 * uq[1]];
         joint.prefix = prefix_r;
         prefix_r = prefix_r + joint.a[0] * r[0] + joint.a[1] * r[1];
         (joint.uq[0], joint.uw[0]) = (uq, x);
         (joint.w_stage, joint.r) = (w_stage, r);
-        joint.r_w = [c10 * x[0], c10 * x[1]];
+    }
+    let mut rot = root_rot;
+    let mut omega = V3::default();
+    let mut pos = root_pos;
+    let mut vel = V3::default();
+    for i in 1..n {
+        let joint = &mut joints[i - 1];
+        let q_stage = [joint.q[0] + joint.uq[0][0], joint.q[1] + joint.uq[0][1]];
         let bend = LaneBend::new(q_stage[0], q_stage[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
@@ -467,24 +487,25 @@ pub(super) fn step_group_in(
         ls.pos[i] = pos;
         ls.tangent[i] = t;
         if has_air {
+            let w_stage = joint.w_stage;
             omega = omega + ax * w_stage[0] + ay * w_stage[1];
             vel = vel + omega.cross(seg);
             ls.vel[i] = vel;
         }
     }
 
-    // Pass 5, tip to root: the first stage's check; the torques at the second stage's state;
-    // the second stage's right-hand side (torque `tau(Y_1) + I r_w`) and offsets.
+    // Pass 5, tip to root: the first stage's check and the torques at the second stage's state;
+    // then, in a second loop, the second stage's right-hand side (torque `tau(Y_1) + I r_w`) and
+    // offsets.
     let mut check = Check::new();
     let (mut s_f, mut t_vec) = (V3::default(), V3::default());
-    let (mut suffix_r, mut gain_r) = (V3::default(), V3::default());
     for i in (1..n).rev() {
         let node = &ls.nodes[i];
         let joint = &mut joints[i - 1];
         check.joint(joint, hg2, chain);
         let xi = ls.pos[i];
         let mi = node.mass + node.wetness;
-        let fi = load(mi, xi, ls.vel[i], ls.tangent[i], joint.len, node.force);
+        let fi = loads.at(mi, xi, ls.vel[i], ls.tangent[i], joint.len, node.force);
         let seg = xi - ls.pos[i - 1];
         let torque = if chain {
             s_f = s_f + fi;
@@ -493,27 +514,35 @@ pub(super) fn step_group_in(
         } else {
             seg.cross(fi)
         };
+        let k = [node.k_theta, node.k_phi];
+        let rest = [node.rest_theta, node.rest_phi];
+        for t in 0..2 {
+            let q_stage = joint.q[t] + joint.uq[0][t];
+            joint.tau_stage[t] = joint.a_stage[t].dot(torque)
+                - k[t] * (q_stage - rest[t])
+                - node.damping * joint.w_stage[t];
+        }
+    }
+    failed |= check.failed();
+    let (mut suffix_r, mut gain_r) = (V3::default(), V3::default());
+    for i in (1..n).rev() {
+        let node = &ls.nodes[i];
+        let joint = &mut joints[i - 1];
         if !chain {
             suffix_r = V3::default();
             gain_r = V3::default();
         }
-        let (r, r_w) = (joint.r, joint.r_w);
+        let r = joint.r;
         suffix_r = suffix_r + joint.v[0] * r[0] + joint.v[1] * r[1];
         let k = [node.k_theta, node.k_phi];
-        let rest = [node.rest_theta, node.rest_phi];
         let mut b = [L::ZERO; 2];
         for t in 0..2 {
-            let q_stage = joint.q[t] + joint.uq[0][t];
-            let tau = joint.a_stage[t].dot(torque)
-                - k[t] * (q_stage - rest[t])
-                - node.damping * joint.w_stage[t];
-            joint.tau_stage[t] = tau;
+            let r_w = c10 * joint.uw[0][t];
             let jw = joint.wg[t].dot(joint.prefix) + joint.a[t].dot(suffix_r);
-            b[t] = hg * (tau + joint.inertia * r_w[t]) + hg2 * (jw - k[t] * r[t]);
+            b[t] = hg * (joint.tau_stage[t] + joint.inertia * r_w) + hg2 * (jw - k[t] * r[t]);
         }
         offsets(joint, b, &mut gain_r, hg2);
     }
-    failed |= check.failed();
 
     // Pass 6, root to tip: the second stage's unknowns `U_1`, and the third stage's right-hand
     // side `r = w_stage + c_20 / h U_0q + c_21 / h U_1q`, `r_w = c_20 / h U_0w + c_21 / h U_1w`.
@@ -523,13 +552,12 @@ pub(super) fn step_group_in(
         let x = unknowns(joint, &mut prefix_x, hg2);
         let r1 = joint.r;
         let uq = [hg * (r1[0] + x[0]), hg * (r1[1] + x[1])];
-        let (uq0, uw0) = (joint.uq[0], joint.uw[0]);
+        let uq0 = joint.uq[0];
         let r = [0, 1].map(|t| joint.w_stage[t] + c20 * uq0[t] + c21 * uq[t]);
-        let r_w = [0, 1].map(|t| c20 * uw0[t] + c21 * x[t]);
         (joint.uq[1], joint.uw[1]) = (uq, x);
         joint.prefix = prefix_r;
         prefix_r = prefix_r + joint.a[0] * r[0] + joint.a[1] * r[1];
-        (joint.r, joint.r_w) = (r, r_w);
+        joint.r = r;
     }
 
     // Pass 7, tip to root: the second stage's check; the third stage's right-hand side (the
@@ -544,26 +572,23 @@ pub(super) fn step_group_in(
             suffix_r = V3::default();
             gain_r = V3::default();
         }
-        let (r, r_w) = (joint.r, joint.r_w);
+        let r = joint.r;
         suffix_r = suffix_r + joint.v[0] * r[0] + joint.v[1] * r[1];
         let k = [node.k_theta, node.k_phi];
         let mut b = [L::ZERO; 2];
         for t in 0..2 {
+            let r_w = c20 * joint.uw[0][t] + c21 * joint.uw[1][t];
             let jw = joint.wg[t].dot(joint.prefix) + joint.a[t].dot(suffix_r);
-            b[t] = hg * (joint.tau_stage[t] + joint.inertia * r_w[t]) + hg2 * (jw - k[t] * r[t]);
+            b[t] = hg * (joint.tau_stage[t] + joint.inertia * r_w) + hg2 * (jw - k[t] * r[t]);
         }
         offsets(joint, b, &mut gain_r, hg2);
     }
     failed |= check.failed();
 
     // Pass 8, root to tip: the third stage's unknowns `U_2`, the new state
-    // `y_n + sum m_i U_i`, the embedded estimate `sum e_i U_i` (angles, and rates times the
-    // step), and the end-of-step positions and velocities.
+    // `y_n + sum m_i U_i` and the embedded estimate `sum e_i U_i` (angles, and rates times the
+    // step); then, in a second loop, the end-of-step positions and velocities.
     let mut prefix_x = V3::default();
-    let mut rot = root_rot;
-    let mut omega = V3::default();
-    let mut pos = root_pos;
-    let mut vel = V3::default();
     let mut nan_if_bad = L::ZERO;
     let mut too_far = none();
     let tolerance = L::splat(real(ROS3.guard.tolerance));
@@ -590,21 +615,24 @@ pub(super) fn step_group_in(
         nan_if_bad += (nan_unless_finite(q[0]) + nan_unless_finite(q[1]))
             + (nan_unless_finite(w[0]) + nan_unless_finite(w[1]))
             + nan_unless_finite(len);
+        let out = &mut ls.out[i];
+        (out.q, out.w, out.len) = (q, w, len);
+    }
+    let mut rot = root_rot;
+    let mut omega = V3::default();
+    let mut pos = root_pos;
+    let mut vel = V3::default();
+    for out in &mut ls.out[1..n] {
+        let (q, w) = (out.q, out.w);
         let bend = LaneBend::new(q[0], q[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
         rot = rot.mul_m(&bend.rotation);
-        let seg = rot.column(2) * len;
+        let seg = rot.column(2) * out.len;
         omega = omega + ax * w[0] + ay * w[1];
         pos = pos + seg;
         vel = vel + omega.cross(seg);
-        ls.out[i] = NodeOut {
-            q,
-            w,
-            len,
-            pos,
-            vel,
-        };
+        (out.pos, out.vel) = (pos, vel);
     }
     let bad = not_finite(nan_if_bad);
 
