@@ -152,6 +152,19 @@ impl M3 {
         }
     }
 
+    /// [`M3::mul_m`] written out, for the ROS3 lane step, where the closure of the `map` was
+    /// left out of line.
+    #[inline(always)]
+    fn mul_m_unrolled(&self, o: &M3) -> M3 {
+        M3 {
+            r: [
+                o.tr_mul_v(self.r[0]),
+                o.tr_mul_v(self.r[1]),
+                o.tr_mul_v(self.r[2]),
+            ],
+        }
+    }
+
     /// `self + a b^T`.
     #[inline(always)]
     fn add_outer(&mut self, a: V3, b: V3) {

@@ -140,7 +140,10 @@ fn offsets(joint: &mut StageJoint, b: [L; 2], gain_r: &mut V3, h2: L) {
     let a = joint.a;
     let rr = [b[0] + h2 * a[0].dot(*gain_r), b[1] + h2 * a[1].dot(*gain_r)];
     let inv = joint.inverse;
-    let offset = [0, 1].map(|s| inv[s][0] * rr[0] + inv[s][1] * rr[1]);
+    let offset = [
+        inv[0][0] * rr[0] + inv[0][1] * rr[1],
+        inv[1][0] * rr[0] + inv[1][1] * rr[1],
+    ];
     *gain_r = *gain_r + joint.g[0] * offset[0] + joint.g[1] * offset[1];
     joint.b = b;
     joint.offset = offset;
@@ -213,42 +216,29 @@ pub(super) fn step_group_in(
     let inv_h = 1.0 / h_s;
     let coef = |i: usize, j: usize| L::splat(real(ROS3.c[i][j]) * inv_h);
     let (c10, c20, c21) = (coef(1, 0), coef(2, 0), coef(2, 1));
-    let weight = ROS3.m.map(|x| L::splat(real(x)));
-    let estimate = ROS3.e.map(|x| L::splat(real(x)));
+    // (Array `map`s and their closures in this function were left out of line: written out.)
+    let weight = [0, 1, 2].map(|i| L::splat(real(ROS3.m[i])));
+    let estimate = [0, 1, 2].map(|i| L::splat(real(ROS3.e[i])));
     let h = L::splat(h_s);
     let hg = L::splat(hg_s);
     let hg2 = hg * hg;
 
-    let [theta, phi, omega_theta, omega_phi, length] = [
-        &*run.theta,
-        &*run.phi,
-        &*run.omega_theta,
-        &*run.omega_phi,
-        &*run.length,
-    ]
-    .map(|field| Strands::new(field, &in_run, n));
-    let [
-        mass,
-        wetness,
-        damping,
-        k_theta,
-        k_phi,
-        rest_theta,
-        rest_phi,
-        k_stretch,
-        rest_length,
-    ] = [
-        sh.mass,
-        sh.wetness,
-        sh.damping,
-        sh.k_theta,
-        sh.k_phi,
-        sh.rest_theta,
-        sh.rest_phi,
-        sh.k_stretch,
-        sh.rest_length,
-    ]
-    .map(|field| Strands::new(field, &global, n));
+    // Each field of the group, sliced to its strands and asked of memory (`Strands::new`), one
+    // by one: through an array's `map` the closures were left out of line.
+    let theta = Strands::new(&*run.theta, &in_run, n);
+    let phi = Strands::new(&*run.phi, &in_run, n);
+    let omega_theta = Strands::new(&*run.omega_theta, &in_run, n);
+    let omega_phi = Strands::new(&*run.omega_phi, &in_run, n);
+    let length = Strands::new(&*run.length, &in_run, n);
+    let mass = Strands::new(sh.mass, &global, n);
+    let wetness = Strands::new(sh.wetness, &global, n);
+    let damping = Strands::new(sh.damping, &global, n);
+    let k_theta = Strands::new(sh.k_theta, &global, n);
+    let k_phi = Strands::new(sh.k_phi, &global, n);
+    let rest_theta = Strands::new(sh.rest_theta, &global, n);
+    let rest_phi = Strands::new(sh.rest_phi, &global, n);
+    let k_stretch = Strands::new(sh.k_stretch, &global, n);
+    let rest_length = Strands::new(sh.rest_length, &global, n);
     let rest_points = Strands::new(sh.rest_points, &global, n);
     let has_external = !sh.force.is_empty();
     let force = has_external.then(|| Strands::new(sh.force, &global, n));
@@ -256,18 +246,28 @@ pub(super) fn step_group_in(
         prefetch_slice(&run.positions[in_run[l]..in_run[l] + n]);
         prefetch_slice(&run.velocities[in_run[l]..in_run[l] + n]);
     }
-    let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
-    let root_pos = V3 {
-        x: L::from(roots.map(|r| r.position.x)),
-        y: L::from(roots.map(|r| r.position.y)),
-        z: L::from(roots.map(|r| r.position.z)),
+    let (mut root_pos, mut root_rot) = ([[0.0; LANES]; 3], [[[0.0; LANES]; 3]; 3]);
+    for l in 0..LANES {
+        let root = &run.roots[local[l]];
+        for i in 0..3 {
+            root_pos[i][l] = root.position[i];
+            for j in 0..3 {
+                root_rot[i][j][l] = root.rotation[(i, j)];
+            }
+        }
+    }
+    let lanes3 = |v: [[f32; LANES]; 3]| V3 {
+        x: L::from(v[0]),
+        y: L::from(v[1]),
+        z: L::from(v[2]),
     };
+    let root_pos = lanes3(root_pos);
     let root_rot = M3 {
-        r: [0, 1, 2].map(|i| V3 {
-            x: L::from(roots.map(|r| r.rotation[(i, 0)])),
-            y: L::from(roots.map(|r| r.rotation[(i, 1)])),
-            z: L::from(roots.map(|r| r.rotation[(i, 2)])),
-        }),
+        r: [
+            lanes3(root_rot[0]),
+            lanes3(root_rot[1]),
+            lanes3(root_rot[2]),
+        ],
     };
     let gravity = {
         let g = sh.env.gravity;
@@ -306,7 +306,7 @@ pub(super) fn step_group_in(
         let bend = LaneBend::new(x, y);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m(&bend.rotation);
+        rot = rot.mul_m_unrolled(&bend.rotation);
         let t = rot.column(2);
         let len = node.length;
         let seg = t * len;
@@ -394,8 +394,10 @@ pub(super) fn step_group_in(
         let joint = &mut joints[j];
         let a = joint.a;
         let sc_dot = sigma - s.dot(pivot);
-        let v = a.map(|at| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot);
-        let wg = a.map(|at| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque));
+        let column = |at: V3| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot;
+        let row = |at: V3| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque);
+        let v = [column(a[0]), column(a[1])];
+        let wg = [row(a[0]), row(a[1])];
         if !chain {
             suffix_w = V3::default();
         }
@@ -441,8 +443,14 @@ pub(super) fn step_group_in(
             (wg[1] + gain_m.tr_mul_v(a[1])) * hg2,
         ];
         let rr = [b[0] + hg2 * a[0].dot(gain_r), b[1] + hg2 * a[1].dot(gain_r)];
-        let gain = [0, 1].map(|s| coupling[0] * inv[s][0] + coupling[1] * inv[s][1]);
-        let offset = [0, 1].map(|s| inv[s][0] * rr[0] + inv[s][1] * rr[1]);
+        let gain = [
+            coupling[0] * inv[0][0] + coupling[1] * inv[0][1],
+            coupling[0] * inv[1][0] + coupling[1] * inv[1][1],
+        ];
+        let offset = [
+            inv[0][0] * rr[0] + inv[0][1] * rr[1],
+            inv[1][0] * rr[0] + inv[1][1] * rr[1],
+        ];
         gain_m.add_outer(g[0], gain[0]);
         gain_m.add_outer(g[1], gain[1]);
         gain_r = gain_r + g[0] * offset[0] + g[1] * offset[1];
@@ -479,7 +487,7 @@ pub(super) fn step_group_in(
         let bend = LaneBend::new(q_stage[0], q_stage[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m(&bend.rotation);
+        rot = rot.mul_m_unrolled(&bend.rotation);
         let t = rot.column(2);
         let seg = t * joint.len;
         joint.a_stage = [ax, ay];
@@ -553,7 +561,10 @@ pub(super) fn step_group_in(
         let r1 = joint.r;
         let uq = [hg * (r1[0] + x[0]), hg * (r1[1] + x[1])];
         let uq0 = joint.uq[0];
-        let r = [0, 1].map(|t| joint.w_stage[t] + c20 * uq0[t] + c21 * uq[t]);
+        let r = [
+            joint.w_stage[0] + c20 * uq0[0] + c21 * uq[0],
+            joint.w_stage[1] + c20 * uq0[1] + c21 * uq[1],
+        ];
         (joint.uq[1], joint.uw[1]) = (uq, x);
         joint.prefix = prefix_r;
         prefix_r = prefix_r + joint.a[0] * r[0] + joint.a[1] * r[1];
@@ -627,7 +638,7 @@ pub(super) fn step_group_in(
         let bend = LaneBend::new(q[0], q[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m(&bend.rotation);
+        rot = rot.mul_m_unrolled(&bend.rotation);
         let seg = rot.column(2) * out.len;
         omega = omega + ax * w[0] + ay * w[1];
         pos = pos + seg;
