@@ -148,15 +148,6 @@ impl M3 {
     #[inline(always)]
     fn mul_m(&self, o: &M3) -> M3 {
         M3 {
-            r: [0, 1, 2].map(|i| o.tr_mul_v(self.r[i])),
-        }
-    }
-
-    /// [`M3::mul_m`] written out, for the ROS3 lane step, where the closure of the `map` was
-    /// left out of line.
-    #[inline(always)]
-    fn mul_m_unrolled(&self, o: &M3) -> M3 {
-        M3 {
             r: [
                 o.tr_mul_v(self.r[0]),
                 o.tr_mul_v(self.r[1]),
@@ -372,9 +363,11 @@ impl Strands<'_, Vector> {
     }
 }
 
-// The gathers and scatters below use loops of constant trip count, not `array::from_fn` or
-// `map`: in a function as large as `step_group_in` the closures of those were at times left
-// out of line, at several times the instructions (docs/perf/dynamics.md).
+// The gathers and scatters below, and the passes' small arrays, use loops of constant trip
+// count or are written out, not `array::from_fn` or `map`: in a function as large as
+// `step_group_in` the closures of those were at times left out of line, at several times the
+// instructions (docs/perf/dynamics.md); whether they are depends on the rest of the crate (the
+// ROS3 lane step's arrival tipped the coupled step's).
 
 /// Eight nodes of eight strands' `f32` field from `start`: a transposed 8 x 8 block, row `k`
 /// node `start + k` of every lane.
@@ -657,6 +650,28 @@ fn member(members: &[usize], l: usize) -> usize {
     members[l.min(members.len() - 1)]
 }
 
+/// The roots' positions and turns of the group's lanes (`local`: each lane's strand in `run`).
+#[inline(always)]
+fn root_frames(run: &Run<'_>, local: &[usize; LANES]) -> (V3, M3) {
+    let (mut position, mut turn) = ([[0.0; LANES]; 3], [[[0.0; LANES]; 3]; 3]);
+    for l in 0..LANES {
+        let root = &run.roots[local[l]];
+        for i in 0..3 {
+            position[i][l] = root.position[i];
+            for j in 0..3 {
+                turn[i][j][l] = root.rotation[(i, j)];
+            }
+        }
+    }
+    let lanes3 = |v: [[f32; LANES]; 3]| V3 {
+        x: L::from(v[0]),
+        y: L::from(v[1]),
+        z: L::from(v[2]),
+    };
+    let rows = [lanes3(turn[0]), lanes3(turn[1]), lanes3(turn[2])];
+    (lanes3(position), M3 { r: rows })
+}
+
 fn step_group_in(
     run: &mut Run<'_>,
     sh: &Shared<'_>,
@@ -688,36 +703,20 @@ fn step_group_in(
     let third = L::splat(3.0);
     // Each field of the group, sliced to its strands (and asked of memory now, see
     // `Strands::new`).
-    let [theta, phi, omega_theta, omega_phi, length] = [
-        &*run.theta,
-        &*run.phi,
-        &*run.omega_theta,
-        &*run.omega_phi,
-        &*run.length,
-    ]
-    .map(|field| Strands::new(field, &in_run, n));
-    let [
-        mass,
-        wetness,
-        damping,
-        k_theta,
-        k_phi,
-        rest_theta,
-        rest_phi,
-        k_stretch,
-        rest_length,
-    ] = [
-        sh.mass,
-        sh.wetness,
-        sh.damping,
-        sh.k_theta,
-        sh.k_phi,
-        sh.rest_theta,
-        sh.rest_phi,
-        sh.k_stretch,
-        sh.rest_length,
-    ]
-    .map(|field| Strands::new(field, &global, n));
+    let theta = Strands::new(&*run.theta, &in_run, n);
+    let phi = Strands::new(&*run.phi, &in_run, n);
+    let omega_theta = Strands::new(&*run.omega_theta, &in_run, n);
+    let omega_phi = Strands::new(&*run.omega_phi, &in_run, n);
+    let length = Strands::new(&*run.length, &in_run, n);
+    let mass = Strands::new(sh.mass, &global, n);
+    let wetness = Strands::new(sh.wetness, &global, n);
+    let damping = Strands::new(sh.damping, &global, n);
+    let k_theta = Strands::new(sh.k_theta, &global, n);
+    let k_phi = Strands::new(sh.k_phi, &global, n);
+    let rest_theta = Strands::new(sh.rest_theta, &global, n);
+    let rest_phi = Strands::new(sh.rest_phi, &global, n);
+    let k_stretch = Strands::new(sh.k_stretch, &global, n);
+    let rest_length = Strands::new(sh.rest_length, &global, n);
     let rest_points = Strands::new(sh.rest_points, &global, n);
     let has_external = !sh.force.is_empty();
     let force = has_external.then(|| Strands::new(sh.force, &global, n));
@@ -736,19 +735,7 @@ fn step_group_in(
         prefetch_slice(&run.positions[in_run[l]..in_run[l] + n]);
         prefetch_slice(&run.velocities[in_run[l]..in_run[l] + n]);
     }
-    let roots: [_; LANES] = std::array::from_fn(|l| run.roots[local[l]]);
-    let root_pos = V3 {
-        x: L::from(roots.map(|r| r.position.x)),
-        y: L::from(roots.map(|r| r.position.y)),
-        z: L::from(roots.map(|r| r.position.z)),
-    };
-    let root_rot = M3 {
-        r: [0, 1, 2].map(|i| V3 {
-            x: L::from(roots.map(|r| r.rotation[(i, 0)])),
-            y: L::from(roots.map(|r| r.rotation[(i, 1)])),
-            z: L::from(roots.map(|r| r.rotation[(i, 2)])),
-        }),
-    };
+    let (root_pos, root_rot) = root_frames(run, &local);
     let gravity = {
         let g = sh.env.gravity;
         V3 {
@@ -909,8 +896,10 @@ fn step_group_in(
         let a = joint.a;
         // The Jacobian's generators (`strand::load_column_generator`, `load_row_generator`).
         let sc_dot = sigma - s.dot(pivot);
-        let v = a.map(|at| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot);
-        let wg = a.map(|at| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque));
+        let column = |at: V3| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot;
+        let row = |at: V3| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque);
+        let v = [column(a[0]), column(a[1])];
+        let wg = [row(a[0]), row(a[1])];
         if !chain {
             suffix_w = V3::default();
         }
@@ -961,8 +950,14 @@ fn step_group_in(
             (wg[1] + gain_m.tr_mul_v(a[1])) * h2,
         ];
         let rr = [b[0] + h2 * a[0].dot(gain_r), b[1] + h2 * a[1].dot(gain_r)];
-        let gain = [0, 1].map(|s| coupling[0] * inv[s][0] + coupling[1] * inv[s][1]);
-        let offset = [0, 1].map(|s| inv[s][0] * rr[0] + inv[s][1] * rr[1]);
+        let gain = [
+            coupling[0] * inv[0][0] + coupling[1] * inv[0][1],
+            coupling[0] * inv[1][0] + coupling[1] * inv[1][1],
+        ];
+        let offset = [
+            inv[0][0] * rr[0] + inv[0][1] * rr[1],
+            inv[1][0] * rr[0] + inv[1][1] * rr[1],
+        ];
         gain_m.add_outer(g[0], gain[0]);
         gain_m.add_outer(g[1], gain[1]);
         gain_r = gain_r + g[0] * offset[0] + g[1] * offset[1];
@@ -1119,7 +1114,10 @@ fn publish_nodes(
         // of a field are one store.
         for start in blocks(n - 1).map(|b| b + 1) {
             let out = &out[start..start + 8];
-            let at: [usize; LANES] = std::array::from_fn(|l| in_run[l] + start);
+            let mut at = [0; LANES];
+            for l in 0..LANES {
+                at[l] = in_run[l] + start;
+            }
             scatter(done, &at, &mut *run.theta, |k| out[k].q[0]);
             scatter(done, &at, &mut *run.phi, |k| out[k].q[1]);
             scatter(done, &at, &mut *run.omega_theta, |k| out[k].w[0]);

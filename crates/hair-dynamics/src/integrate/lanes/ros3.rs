@@ -30,7 +30,7 @@
 
 use super::{
     L, LANES, LaneBend, LaneOutcome, LaneScratch, M3, Strands, V3, gather, gather3, member,
-    nan_unless_finite, not_finite, per_lane, prefetch_slice, publish_nodes,
+    nan_unless_finite, not_finite, per_lane, prefetch_slice, publish_nodes, root_frames,
 };
 use crate::Vector;
 use crate::integrate::rosenbrock::ROS3;
@@ -246,29 +246,7 @@ pub(super) fn step_group_in(
         prefetch_slice(&run.positions[in_run[l]..in_run[l] + n]);
         prefetch_slice(&run.velocities[in_run[l]..in_run[l] + n]);
     }
-    let (mut root_pos, mut root_rot) = ([[0.0; LANES]; 3], [[[0.0; LANES]; 3]; 3]);
-    for l in 0..LANES {
-        let root = &run.roots[local[l]];
-        for i in 0..3 {
-            root_pos[i][l] = root.position[i];
-            for j in 0..3 {
-                root_rot[i][j][l] = root.rotation[(i, j)];
-            }
-        }
-    }
-    let lanes3 = |v: [[f32; LANES]; 3]| V3 {
-        x: L::from(v[0]),
-        y: L::from(v[1]),
-        z: L::from(v[2]),
-    };
-    let root_pos = lanes3(root_pos);
-    let root_rot = M3 {
-        r: [
-            lanes3(root_rot[0]),
-            lanes3(root_rot[1]),
-            lanes3(root_rot[2]),
-        ],
-    };
+    let (root_pos, root_rot) = root_frames(run, &local);
     let gravity = {
         let g = sh.env.gravity;
         V3 {
@@ -306,7 +284,7 @@ pub(super) fn step_group_in(
         let bend = LaneBend::new(x, y);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m_unrolled(&bend.rotation);
+        rot = rot.mul_m(&bend.rotation);
         let t = rot.column(2);
         let len = node.length;
         let seg = t * len;
@@ -487,7 +465,7 @@ pub(super) fn step_group_in(
         let bend = LaneBend::new(q_stage[0], q_stage[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m_unrolled(&bend.rotation);
+        rot = rot.mul_m(&bend.rotation);
         let t = rot.column(2);
         let seg = t * joint.len;
         joint.a_stage = [ax, ay];
@@ -638,7 +616,7 @@ pub(super) fn step_group_in(
         let bend = LaneBend::new(q[0], q[1]);
         let ax = rot.mul_v(bend.axis_x);
         let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m_unrolled(&bend.rotation);
+        rot = rot.mul_m(&bend.rotation);
         let seg = rot.column(2) * out.len;
         omega = omega + ax * w[0] + ay * w[1];
         pos = pos + seg;
