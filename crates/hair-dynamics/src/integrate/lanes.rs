@@ -1,4 +1,5 @@
-//! The coupled implicit step and BDF2 eight strands at a time, in `f32x8` lanes.
+//! The coupled implicit step, BDF2 and ROS3 eight strands at a time, in `f32x8` lanes (ROS3 in
+//! [`ros3`], on this module's lane types).
 //!
 //! The same model and the same linear solve as [`super::implicit_coupled`]'s structured solve,
 //! specialised to what the runtime runs most: `f32`, attached roots and a head that does not

@@ -8,7 +8,7 @@
 //! | [`Integrator::ImplicitAngular`] | Ward & Lin Appendix A per angle, damping folded in | loads treated explicitly: gravity-dominated soft strands at large steps |
 //! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one `O(n)` structured solve per strand | none found in the stability sweep |
 //! | [`Integrator::ImplicitRos2`] | two-stage L-stable Rosenbrock (second order) on the same system, two solves of the coupled step's kind | see `hair stability` |
-//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves; a step its error guard does not trust is split in up to four pieces, then taken as the coupled step in four pieces | none found in the stability sweep |
+//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves of one matrix (eight strands at a time in lanes); a step its error guard does not trust is split in up to four pieces, then taken as the coupled step in four pieces | none found in the stability sweep |
 //! | [`Integrator::ImplicitBdf2`] | linearly implicit BDF2 (second order, L-stable) on the coupled system, one solve of the coupled step's kind, the previous step kept in the state | none found in the stability sweep |
 
 mod bdf2;
