@@ -7,22 +7,24 @@
 //! the gains `E_j`) are kept for the two later right-hand sides. A later stage then costs one
 //! tip-to-root pass for its right-hand side's offsets and one root-to-tip pass for its unknowns.
 //! Each pass that runs one way also does the work of the other stages that runs the same way,
-//! so the step is eight passes over the nodes:
+//! so the step is nine passes over the nodes (some in two loops, where one carried more sums
+//! than there are registers):
 //! 1. root to tip: the kinematics at the start of the step and the prefix sums of `A w`;
 //! 2. tip to root: forces, torques, inertia and the Jacobian's generators; the first stage's
 //!    right-hand side;
 //! 3. tip to root: the elimination, and the first stage's offsets;
-//! 4. root to tip: the first stage's unknowns, the second stage's state and its kinematics, and
-//!    the prefix sums of `A r` of the second stage's right-hand side `r`;
-//! 5. tip to root: the first stage's residual check; the forces and torques at the second
-//!    stage's state; the second stage's right-hand side and offsets;
-//! 6. root to tip: the second stage's unknowns and the third's prefix sums;
-//! 7. tip to root: the second stage's check; the third stage's right-hand side and offsets;
-//! 8. root to tip: the third stage's unknowns, the new state, its error estimate, and the
+//! 4. root to tip: the first stage's unknowns, the second stage's right-hand side `r` and the
+//!    prefix sums of `A r`; then the kinematics at the second stage's state;
+//! 5. tip to root: the first stage's residual check and the forces and torques at the second
+//!    stage's state; then the second stage's offsets;
+//! 6. root to tip: the second stage's unknowns and the third's right-hand side;
+//! 7. tip to root: the second stage's check; the third stage's offsets;
+//! 8. root to tip: the third stage's unknowns, the new state and its error estimate; then the
 //!    end-of-step positions and velocities;
+//! 9. tip to root: the third stage's check.
 //!
-//! then the third stage's check, tip to root. The arithmetic of each stage is the scalar step's,
-//! in the same order where the order changes the rounding of a sum of stages.
+//! The arithmetic of each stage is the scalar step's, in the same order where the order changes
+//! the rounding of a sum of stages.
 //!
 //! A lane whose check fails, whose state goes non-finite or whose embedded error estimate is over
 //! the guard's tolerance is left untouched and redone by the scalar ROS3 step under its guard (the
@@ -216,9 +218,12 @@ pub(super) fn step_group_in(
     let inv_h = 1.0 / h_s;
     let coef = |i: usize, j: usize| L::splat(real(ROS3.c[i][j]) * inv_h);
     let (c10, c20, c21) = (coef(1, 0), coef(2, 0), coef(2, 1));
-    // (Array `map`s and their closures in this function were left out of line: written out.)
-    let weight = [0, 1, 2].map(|i| L::splat(real(ROS3.m[i])));
-    let estimate = [0, 1, 2].map(|i| L::splat(real(ROS3.e[i])));
+    // Written out, as every small array here: in this function the closures of array `map`s
+    // were left out of line.
+    let [m0, m1, m2] = ROS3.m;
+    let weight = [L::splat(real(m0)), L::splat(real(m1)), L::splat(real(m2))];
+    let [e0, e1, e2] = ROS3.e;
+    let estimate = [L::splat(real(e0)), L::splat(real(e1)), L::splat(real(e2))];
     let h = L::splat(h_s);
     let hg = L::splat(hg_s);
     let hg2 = hg * hg;
