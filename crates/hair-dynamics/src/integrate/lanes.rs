@@ -314,7 +314,9 @@ pub(super) fn step_group(
 ) -> [LaneOutcome; LANES] {
     LANE_SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
-        // Grown already by `grow_every_worker`: this allocates nothing.
+        // Grown already by `grow_every_worker`, so this allocates nothing; except for states
+        // stepped from inside a pool's worker (see `StrandState::step`), whose workers' buffers
+        // grow here, at the first group each meets.
         guard.reserve(n);
         if sh.settings.integrator == Integrator::ImplicitRos3 {
             ros3::step_group_in(run, sh, members, n, &mut guard)
