@@ -3,14 +3,15 @@
 //! dt = 1 ms), without building the command-line tool: for profiling (`valgrind
 //! --tool=callgrind`) and quick before/after figures.
 //!
-//! `cargo run --release -p hair-dynamics --example step_throughput -- SKELETONS STEPS THREADS`
-//! (defaults 10000, 200, all); prints node-steps per second and the dense fallbacks.
+//! `cargo run --release -p hair-dynamics --example step_throughput -- SKELETONS STEPS THREADS
+//! [INTEGRATOR [DT]]` (defaults 10000, 200, all, `implicit_coupled`, 0.001 s); prints node-steps
+//! per second, the dense fallbacks and the Rosenbrock steps the guard split.
 
 use std::time::Instant;
 
 use hair_dynamics::{
-    Environment, Material, Point, Real, Root, SkeletonDesc, StepSettings, StrandState, Style,
-    Vector, style_points,
+    Environment, Integrator, Material, Point, Real, Root, SkeletonDesc, StepSettings, StrandState,
+    Style, Vector, style_points,
 };
 use nalgebra::{Rotation3, Unit};
 
@@ -74,10 +75,21 @@ fn scene(skeletons: usize) -> StrandState {
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args()
-        .skip(1)
+    let words: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<usize> = words
+        .iter()
+        .take(3)
         .map(|a| a.parse().expect("SKELETONS STEPS THREADS as integers"))
         .collect();
+    let integrator = words.get(3).map_or(Integrator::ImplicitCoupled, |name| {
+        Integrator::ALL
+            .into_iter()
+            .find(|i| i.name() == name)
+            .expect("an integrator's name, e.g. implicit_ros3")
+    });
+    let dt: Real = words
+        .get(4)
+        .map_or(1e-3, |dt| dt.parse().expect("DT in seconds"));
     let skeletons = args.first().copied().unwrap_or(10_000);
     let steps = args.get(1).copied().unwrap_or(200);
     let threads = args.get(2).copied().unwrap_or(0);
@@ -87,26 +99,35 @@ fn main() {
         .expect("a thread pool");
     let env = Environment::default();
     let settings = StepSettings {
-        dt: 1e-3,
+        dt,
+        integrator,
         ..StepSettings::default()
     };
     let mut state = scene(skeletons);
-    let (best, fallbacks) = pool.install(|| {
+    let (best, total, fallbacks, splits, to_coupled) = pool.install(|| {
         let mut fallbacks = 0;
+        let mut total = 0.0;
+        let (mut splits, mut to_coupled) = (0, 0);
         let mut best = f64::INFINITY;
         for _ in 0..steps {
             let clock = Instant::now();
             let report = state.step(&env, &settings).expect("finite steps");
-            best = best.min(clock.elapsed().as_secs_f64());
+            let took = clock.elapsed().as_secs_f64();
+            best = best.min(took);
+            total += took;
             fallbacks += report.dense_fallbacks;
+            splits += report.rosenbrock_splits;
+            to_coupled += report.rosenbrock_fallbacks;
         }
-        (best, fallbacks)
+        (best, total, fallbacks, splits, to_coupled)
     });
     let nodes = state.node_count() as f64;
     let checksum: f64 = state.positions().iter().map(|p| f64::from(p.y)).sum();
     println!(
-        "{skeletons} skeletons x {POINTS} points, {steps} steps, {} threads: {:.2} M node-steps/s (best step), {fallbacks} dense fallbacks, checksum {checksum:.6}",
+        "{skeletons} skeletons x {POINTS} points, {steps} steps of {dt} s by {}, {} threads: {:.2} M node-steps/s (best step), {:.2} M (all steps), {fallbacks} dense fallbacks, {splits} Rosenbrock steps split ({to_coupled} of them to the coupled step), checksum {checksum:.6}",
+        integrator.name(),
         pool.current_num_threads(),
-        nodes / best / 1e6
+        nodes / best / 1e6,
+        nodes * steps as f64 / total / 1e6
     );
 }

@@ -93,6 +93,12 @@ pub(crate) struct Scratch<T: RealField + Copy> {
     /// Rosenbrock steps whose guard found no split within its tolerance and that were redone as
     /// the coupled step.
     pub rosenbrock_fallbacks: usize,
+    /// Rosenbrock steps whose guard split them (those redone as the coupled step included).
+    pub rosenbrock_splits: usize,
+    /// The pieces the next Rosenbrock step's guard starts from (0 or 1: one piece), reset by
+    /// that step: a strand the lanes already took in one piece, and whose estimate the guard
+    /// did not trust, starts at two.
+    pub rosenbrock_first_pieces: u32,
     // Integrator stages.
     pub q0: Vec<T>,
     pub w0: Vec<T>,

@@ -151,10 +151,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         )))
         .map(|(s, d)| (s.0 / d.0, s.1 / d.1));
 
-    // BDF2's cost per step over the first-order coupled step's (throughputs inverted).
-    let bdf2_cost = rate(Integrator::ImplicitCoupled.name())
-        .zip(rate(Integrator::ImplicitBdf2.name()))
-        .map(|(c, b)| (c.0 / b.0, c.1 / b.1));
+    // The second-order steps' cost per step over the first-order coupled step's (throughputs
+    // inverted).
+    let cost_over_coupled = |integrator: Integrator| {
+        rate(Integrator::ImplicitCoupled.name())
+            .zip(rate(integrator.name()))
+            .map(|(c, b)| (c.0 / b.0, c.1 / b.1))
+    };
+    let bdf2_cost = cost_over_coupled(Integrator::ImplicitBdf2);
+    let ros3_cost = cost_over_coupled(Integrator::ImplicitRos3);
 
     if args.json {
         let mut obj = Map::new();
@@ -162,6 +167,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             obj.insert("implicit_bdf2_cost_over_implicit_coupled".into(), json!(r1));
             obj.insert(
                 "implicit_bdf2_cost_over_implicit_coupled_all_threads".into(),
+                json!(rn),
+            );
+        }
+        if let Some((r1, rn)) = ros3_cost {
+            obj.insert("implicit_ros3_cost_over_implicit_coupled".into(), json!(r1));
+            obj.insert(
+                "implicit_ros3_cost_over_implicit_coupled_all_threads".into(),
                 json!(rn),
             );
         }

@@ -8,7 +8,7 @@
 //! | [`Integrator::ImplicitAngular`] | Ward & Lin Appendix A per angle, damping folded in | loads treated explicitly: gravity-dominated soft strands at large steps |
 //! | [`Integrator::ImplicitCoupled`] | linearly implicit Euler on the whole strand: springs, damping and the load's dependence on every angle, one `O(n)` structured solve per strand | none found in the stability sweep |
 //! | [`Integrator::ImplicitRos2`] | two-stage L-stable Rosenbrock (second order) on the same system, two solves of the coupled step's kind | see `hair stability` |
-//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves; a step its error guard does not trust is split in up to four pieces, then taken as the coupled step in four pieces | none found in the stability sweep |
+//! | [`Integrator::ImplicitRos3`] | three-stage L-stable Rosenbrock (third order), two torque evaluations and three solves of one matrix (eight strands at a time in lanes); a step its error guard does not trust is split in up to four pieces, then taken as the coupled step in four pieces | none found in the stability sweep |
 //! | [`Integrator::ImplicitBdf2`] | linearly implicit BDF2 (second order, L-stable) on the coupled system, one solve of the coupled step's kind, the previous step kept in the state | none found in the stability sweep |
 
 mod bdf2;
@@ -154,6 +154,13 @@ pub struct StepReport {
     /// Strands whose [`LinearSolver::Structured`] solve failed its residual check and was redone
     /// by the dense LU (0 for the other solvers and integrators).
     pub dense_fallbacks: usize,
+    /// Strands whose Rosenbrock step ([`Integrator::ImplicitRos2`], [`Integrator::ImplicitRos3`])
+    /// its error guard did not trust in one piece: split into pieces, or then taken as the
+    /// coupled step (0 for the other integrators).
+    pub rosenbrock_splits: usize,
+    /// Of those, the strands whose step even the guard's most pieces did not resolve and that
+    /// were taken as the coupled step in pieces.
+    pub rosenbrock_fallbacks: usize,
 }
 
 /// Advances one strand by one step in the scalar type `T`. Returns the first non-finite node, if
@@ -461,9 +468,28 @@ struct Shared<'a> {
 /// Nodes per leaf of the parallel split: big enough to amortise the fork, small enough to balance.
 const GRAIN_NODES: usize = 512;
 
-/// What a run of skeletons reports: the first that went non-finite (skeleton, node), and the
-/// number of dense fallbacks.
-type RunOutcome = (Option<(usize, usize)>, usize);
+/// What a run of skeletons reports.
+#[derive(Default)]
+struct RunOutcome {
+    /// The first skeleton that went non-finite, and its node.
+    first_bad: Option<(usize, usize)>,
+    /// The counts of [`StepReport`]'s same names.
+    dense_fallbacks: usize,
+    rosenbrock_splits: usize,
+    rosenbrock_fallbacks: usize,
+}
+
+impl RunOutcome {
+    /// The outcome of two runs, `self` the earlier.
+    fn and(self, later: RunOutcome) -> RunOutcome {
+        RunOutcome {
+            first_bad: self.first_bad.or(later.first_bad),
+            dense_fallbacks: self.dense_fallbacks + later.dense_fallbacks,
+            rosenbrock_splits: self.rosenbrock_splits + later.rosenbrock_splits,
+            rosenbrock_fallbacks: self.rosenbrock_fallbacks + later.rosenbrock_fallbacks,
+        }
+    }
+}
 
 fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
     let count = run.roots.len();
@@ -472,7 +498,7 @@ fn run_parallel(run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
         let at = sh.state_offsets[mid] as usize;
         let (a, b) = run.split(mid, at);
         let (ra, rb) = rayon::join(|| run_parallel(a, sh), || run_parallel(b, sh));
-        return (ra.0.or(rb.0), ra.1 + rb.1);
+        return ra.and(rb);
     }
     run_sequential(run, sh)
 }
@@ -482,14 +508,22 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
         let mut guard = cell.borrow_mut();
         let buffers = &mut *guard;
         let mut first_bad = None;
-        let fallbacks_before = buffers.sc.dense_fallbacks;
-        let mut scalar = |run: &mut Run<'_>, local: usize, settings: &StepSettings| {
-            if let Some(node) = step_skeleton(run, sh, local, settings, buffers) {
-                let s = run.first + local;
-                // The lanes finish out of order: keep the first skeleton, as the scalar loop does.
-                first_bad = Some(first_bad.map_or((s, node), |b: (usize, usize)| b.min((s, node))));
-            }
-        };
+        let before = (
+            buffers.sc.dense_fallbacks,
+            buffers.sc.rosenbrock_splits,
+            buffers.sc.rosenbrock_fallbacks,
+        );
+        // `first_pieces`: where a Rosenbrock step's guard starts (see `rosenbrock::advance`).
+        let mut scalar =
+            |run: &mut Run<'_>, local: usize, settings: &StepSettings, first_pieces| {
+                buffers.sc.rosenbrock_first_pieces = first_pieces;
+                if let Some(node) = step_skeleton(run, sh, local, settings, buffers) {
+                    let s = run.first + local;
+                    // The lanes finish out of order: keep the first skeleton, as the scalar loop does.
+                    first_bad =
+                        Some(first_bad.map_or((s, node), |b: (usize, usize)| b.min((s, node))));
+                }
+            };
         let mut lane_fallbacks = 0;
         if lanes::covers(sh) {
             // Strands of equal node count (attached roots) eight at a time; the rest one by one.
@@ -497,6 +531,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                 solver: LinearSolver::Hand,
                 ..sh.settings
             };
+            let ros3 = sh.settings.integrator == Integrator::ImplicitRos3;
             let mut group = [0usize; lanes::LANES];
             let mut members = 0;
             let mut group_n = 0;
@@ -505,18 +540,26 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                  group: &[usize],
                  n: usize,
                  fallbacks: &mut usize,
-                 scalar: &mut dyn FnMut(&mut Run<'_>, usize, &StepSettings)| {
+                 scalar: &mut dyn FnMut(&mut Run<'_>, usize, &StepSettings, u32)| {
                     let outcome = lanes::step_group(run, sh, group, n);
                     for (&local, o) in group.iter().zip(outcome) {
                         match o {
                             // The lanes left the strand's BDF2 history (or none).
                             lanes::LaneOutcome::Done => {}
+                            // ROS3's scalar step redoes a declined stage by the dense solve
+                            // itself, and counts it.
+                            lanes::LaneOutcome::Declined if ros3 => {
+                                scalar(run, local, &sh.settings, 1)
+                            }
                             lanes::LaneOutcome::Declined => {
                                 *fallbacks += 1;
-                                scalar(run, local, &dense);
+                                scalar(run, local, &dense, 1);
                             }
+                            // The lanes took ROS3's step in one piece, which the guard did not
+                            // trust: the scalar step starts at two.
+                            lanes::LaneOutcome::Redo if ros3 => scalar(run, local, &sh.settings, 2),
                             lanes::LaneOutcome::NonFinite | lanes::LaneOutcome::Redo => {
-                                scalar(run, local, &sh.settings)
+                                scalar(run, local, &sh.settings, 1)
                             }
                         }
                     }
@@ -529,7 +572,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                 }
                 let n = sh.counts[s] as usize;
                 if run.roots[local].free {
-                    scalar(&mut run, local, &sh.settings);
+                    scalar(&mut run, local, &sh.settings, 1);
                     continue;
                 }
                 if members > 0 && n != group_n {
@@ -568,7 +611,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
         } else {
             for local in 0..run.roots.len() {
                 if sh.active[run.first + local] {
-                    scalar(&mut run, local, &sh.settings);
+                    scalar(&mut run, local, &sh.settings, 1);
                 } else {
                     // A dormant strand restarts BDF2 from backward Euler when it wakes.
                     run.roots[local].history = 0;
@@ -576,7 +619,12 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
             }
         }
         buffers.sc.dense_fallbacks += lane_fallbacks;
-        (first_bad, buffers.sc.dense_fallbacks - fallbacks_before)
+        RunOutcome {
+            first_bad,
+            dense_fallbacks: buffers.sc.dense_fallbacks - before.0,
+            rosenbrock_splits: buffers.sc.rosenbrock_splits - before.1,
+            rosenbrock_fallbacks: buffers.sc.rosenbrock_fallbacks - before.2,
+        }
     })
 }
 
@@ -745,13 +793,20 @@ impl StrandState {
         let dormant = self.active.iter().filter(|a| !**a).count();
         let max_count = self.counts.iter().max().map_or(0, |&c| c as usize);
         // Every worker's lane buffers grown at once, the first time this state steps in a
-        // pool of this size or meets a longer skeleton (see `grow_every_worker`).
+        // pool of this size or meets a longer skeleton (see `grow_every_worker`). Not from
+        // inside a worker (states stepped in parallel, as `hair stability` steps its cells): a
+        // worker waiting for the broadcast runs other queued jobs meanwhile, among them other
+        // states' first steps, whose broadcasts nest on its stack until it overflows. There
+        // the buffers grow at a worker's first group.
         let warmth = (rayon::current_num_threads(), max_count);
-        if self.lanes_grown != Some(warmth) && lanes::covers_integrator(settings) {
+        if self.lanes_grown != Some(warmth)
+            && lanes::covers_integrator(settings)
+            && rayon::current_thread_index().is_none()
+        {
             lanes::grow_every_worker(max_count);
             self.lanes_grown = Some(warmth);
         }
-        let (bad, dense_fallbacks) = {
+        let outcome = {
             let local = env.local();
             let lane_air = local.has_air.then(|| lanes::LaneAir::new(&local));
             let sh = Shared {
@@ -776,7 +831,7 @@ impl StrandState {
             // The run borrows only its own fields: `sh` holds others.
             let run = crate::run::whole_run!(self);
             if skeletons == 0 {
-                (None, 0)
+                RunOutcome::default()
             } else {
                 run_parallel(run, &sh)
             }
@@ -786,7 +841,7 @@ impl StrandState {
         self.steps += 1;
         self.last_dt = settings.dt;
         debug_assert_eq!(nodes, self.theta.len());
-        if let Some((skeleton, node)) = bad {
+        if let Some((skeleton, node)) = outcome.first_bad {
             return Err(DynamicsError::NonFiniteState {
                 step,
                 skeleton,
@@ -798,7 +853,9 @@ impl StrandState {
             integrated: skeletons - dormant,
             dormant,
             bonds_broken,
-            dense_fallbacks,
+            dense_fallbacks: outcome.dense_fallbacks,
+            rosenbrock_splits: outcome.rosenbrock_splits,
+            rosenbrock_fallbacks: outcome.rosenbrock_fallbacks,
         })
     }
 }

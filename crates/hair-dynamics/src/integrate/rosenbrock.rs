@@ -125,7 +125,9 @@ impl<T: RealField + Copy, F: Fn(&RootDyn<T>, &[T], &[T], &[T], bool, &mut Scratc
 /// so, redone as the coupled step in `max_pieces` pieces when even those exceed it. `q0`, `w0`
 /// in `sc` are the coordinates at the start of the step (the caller's copies); `frame_spin` as
 /// in the coupled step (the Rosenbrock stages keep a turning frame's terms explicit, the
-/// fallback does not). Returns whether the step fell back to backward Euler.
+/// fallback does not). The guard starts at `sc.rosenbrock_first_pieces` pieces (one if 0), and
+/// counts a step it splits in `sc.rosenbrock_splits`. Returns whether the step fell back to
+/// backward Euler.
 #[expect(
     clippy::too_many_arguments,
     reason = "the kernel's inputs are all distinct slices"
@@ -147,7 +149,10 @@ pub(super) fn advance<T: RealField + Copy>(
     let root0 = *root;
     let guard = &tab.guard;
     let tol = T::from_f64(guard.tolerance).unwrap_or_else(T::zero);
-    let mut pieces = 1u32;
+    let mut pieces = std::mem::take(&mut sc.rosenbrock_first_pieces).clamp(1, guard.max_pieces);
+    if pieces > 1 {
+        sc.rosenbrock_splits += 1;
+    }
     loop {
         let piece = h / T::from_u32(pieces).unwrap_or_else(T::one);
         let mut ok = true;
@@ -160,6 +165,9 @@ pub(super) fn advance<T: RealField + Copy>(
         }
         if ok || (pieces >= guard.max_pieces && !guard.backward_euler) {
             return false;
+        }
+        if pieces == 1 {
+            sc.rosenbrock_splits += 1;
         }
         q.copy_from_slice(&sc.q0[..m2]);
         w.copy_from_slice(&sc.w0[..m2]);
