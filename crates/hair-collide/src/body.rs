@@ -25,9 +25,10 @@ pub struct BodyReport {
 ///
 /// It also keeps, per node, the clearance of its last query (how far it may move from where it
 /// was asked and stay out of reach: [`Clearance`]), so that a node still within it is not
-/// queried again (most nodes, most steps; the results are the same bits). The bounds hold for one body
-/// ([`MeshBody::identity`]) by one [`CollisionMethod`] and are dropped when either, or the node
-/// count, changes; they are kept in the body's own frame, so a part's pose may change.
+/// queried again (most nodes, most steps; the results are the same bits). The clearances hold
+/// for one body ([`MeshBody::identity`]) by one [`CollisionMethod`] and are dropped when
+/// either, or the node count, changes; they are kept in the body's own frame, so a part's pose
+/// may change.
 #[derive(Clone, Debug, Default)]
 pub struct BodyConstraint {
     body_nodes: Vec<BodyNode>,
@@ -117,8 +118,9 @@ impl BodyConstraint {
     /// pushes it back in, it is held to the ramp; a node next to one still allowed inside is
     /// allowed that, less the segment between them. Every other node, including one that
     /// reaches the body during the ramp, is resolved at once. The ramp ends early, and the
-    /// sweeps begin, once no node is allowed inside (at once when none starts inside). On the ramp the passes test every
-    /// node where the last pass left it (the allowances are set on the first), refit the
+    /// sweeps begin, once no node is allowed inside (at once when none starts inside). On the
+    /// ramp the passes test every node where the last pass left it from each skeleton's first
+    /// node its clearance does not keep out of reach (the allowances are set on the first), refit the
     /// skeletons they moved, and repeat on them until no node is deeper than the skin
     /// ([`CollisionSettings::contact_skin`] of the tolerance) beyond its allowance, or [`CollisionSettings::body_passes`] have run.
     ///
