@@ -923,9 +923,9 @@ impl StrandState {
         fill: impl FnOnce(&StrandState, &mut [Vector]) -> R,
     ) -> R {
         let mut forces = std::mem::take(&mut self.next_step_node_forces);
-        forces.resize(self.node_count(), Vector::zeros());
         let result = fill(self, &mut forces);
         self.next_step_node_forces = forces;
+        self.node_forces_pending = true;
         result
     }
 

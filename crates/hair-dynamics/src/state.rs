@@ -155,8 +155,10 @@ pub struct StrandState {
     /// Forces for the next step only (node, force), added by `add_forces_for_next_step`.
     pub(crate) next_step_forces: Vec<(u32, Vector)>,
     /// Forces for the next step only, one per node, added by `add_node_forces_for_next_step`;
-    /// empty when none was added.
+    /// all zero unless `node_forces_pending` (the step zeroes them as it reads them, in its
+    /// parallel pass, so a response need not clear them first).
     pub(crate) next_step_node_forces: Vec<Vector>,
+    pub(crate) node_forces_pending: bool,
     pub(crate) positions: Vec<Point>,
     pub(crate) velocities: Vec<Vector>,
     pub(crate) steps: u64,
@@ -222,6 +224,7 @@ impl Clone for StrandState {
             external_force,
             next_step_forces,
             next_step_node_forces,
+            node_forces_pending,
             positions,
             velocities,
             steps,
@@ -266,6 +269,7 @@ impl Clone for StrandState {
         external_force.clone_from(&from.external_force);
         next_step_forces.clone_from(&from.next_step_forces);
         next_step_node_forces.clone_from(&from.next_step_node_forces);
+        *node_forces_pending = from.node_forces_pending;
         positions.clone_from(&from.positions);
         velocities.clone_from(&from.velocities);
         *steps = from.steps;
@@ -403,6 +407,7 @@ impl StrandState {
             self.radius.push(mat.radius);
             self.rest_points.push(desc.points[i].coords);
             self.external_force.push(Vector::zeros());
+            self.next_step_node_forces.push(Vector::zeros());
             self.positions.push(desc.points[i]);
             self.velocities
                 .push(if free { velocity } else { Vector::zeros() });

@@ -768,21 +768,18 @@ impl StrandState {
         env.validate()?;
         let mut force = std::mem::take(&mut self.force_scratch);
         force.clear();
-        // The per-node forces for this step added in the same pass (nodes appended since they
-        // were added have none).
-        let added = self
-            .next_step_node_forces
-            .len()
-            .min(self.external_force.len());
-        let (with, without) = self.external_force.split_at(added);
-        force.par_extend(
-            with.par_iter()
-                .zip(&self.next_step_node_forces)
-                .map(|(e, g)| e + g),
-        );
-        force.extend_from_slice(without);
-        // Empty until a response adds some again: a state copied now carries none.
-        self.next_step_node_forces.clear();
+        // The per-node forces for this step added in the same pass, and zeroed there for the
+        // next response.
+        if std::mem::take(&mut self.node_forces_pending) {
+            force.par_extend(
+                self.external_force
+                    .par_iter()
+                    .zip(&mut self.next_step_node_forces)
+                    .map(|(e, g)| e + std::mem::replace(g, Vector::zeros())),
+            );
+        } else {
+            force.extend_from_slice(&self.external_force);
+        }
         for &(node, f) in &self.next_step_forces {
             force[node as usize] += f;
         }
