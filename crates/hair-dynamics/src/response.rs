@@ -790,6 +790,22 @@ impl StrandState {
         if out.len() < self.theta.len() {
             out.resize(self.theta.len(), 0.0);
         }
+        self.fill_inverse_joint_inertia(skeletons, out, 0);
+    }
+
+    /// [`StrandState::inverse_joint_inertia`] of `skeletons` (ascending) into `out`, whose first
+    /// slot is node `base`: in parallel over halves of the list, each writing its own nodes.
+    fn fill_inverse_joint_inertia(&self, skeletons: &[u32], out: &mut [Real], base: usize) {
+        if skeletons.len() > crate::run::GRAIN_SKELETONS {
+            let half = skeletons.len() / 2;
+            let mid = self.offsets[skeletons[half] as usize] as usize;
+            let (left, right) = out.split_at_mut(mid - base);
+            rayon::join(
+                || self.fill_inverse_joint_inertia(&skeletons[..half], left, base),
+                || self.fill_inverse_joint_inertia(&skeletons[half..], right, mid),
+            );
+            return;
+        }
         for &s in skeletons {
             let r = self.nodes(crate::SkeletonId(s));
             // Suffix sums from the tip, in f64: sum m, sum m p, sum m |p|^2.
@@ -804,7 +820,7 @@ impl StrandState {
                 let chain = m2 - 2.0 * c.dot(&m1) + m0 * c.norm_squared();
                 let floor = 1e-2 * m * f64::from(self.length[i]).powi(2);
                 let inertia = chain.max(floor);
-                out[i] = if inertia > 0.0 {
+                out[i - base] = if inertia > 0.0 {
                     (1.0 / inertia) as Real
                 } else {
                     0.0
