@@ -1154,39 +1154,5 @@ mod tests {
                 nudge([&mut with, &mut without], seed.wrapping_add(k as u64));
             }
         }
-
-        /// The body's support skips the query of a node whose clearance keeps it beyond where
-        /// its push fades out: the same forces, so the same steps, as a support that asks every
-        /// time.
-        #[test]
-        fn support_clearances_change_no_result(
-            seed in any::<u64>(),
-            field in any::<bool>(),
-            push in 1e-5f32..1e-3,
-        ) {
-            static BODY: std::sync::OnceLock<MeshBody> = std::sync::OnceLock::new();
-            let centre = Point::new(0.0, -0.1, 0.0);
-            let body = BODY.get_or_init(|| torus(centre));
-            let roots = roots_around(centre);
-            let (mut with, mut without) = (strands(&roots), strands(&roots));
-            let settings = CollisionSettings {
-                method: if field { CollisionMethod::Field } else { CollisionMethod::Bvh },
-                ..CollisionSettings::default()
-            };
-            let (mut cached, lying) = crate::support::BodySupport::lying(&with, body, &settings);
-            prop_assume!(!lying.is_empty());
-            cached.set_pushes(&vec![push; lying.len()]);
-            let fresh = cached.clone();
-            for k in 0..8u64 {
-                let x = cached.apply(&mut with, body, &settings).unwrap();
-                let y = fresh.clone().apply(&mut without, body, &settings).unwrap();
-                prop_assert_eq!(x, y, "call {}", k);
-                for s in [&mut with, &mut without] {
-                    s.step(&Environment::default(), &StepSettings::default()).unwrap();
-                }
-                prop_assert_eq!(bits(&with), bits(&without), "call {}", k);
-                nudge([&mut with, &mut without], seed.wrapping_add(k));
-            }
-        }
     }
 }

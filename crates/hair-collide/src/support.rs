@@ -17,7 +17,7 @@
 
 use crate::CollisionSettings;
 use hair_dynamics::{DynamicsError, SkeletonId, StrandState};
-use hair_ssv::{BodyIdentity, Clearance, CollisionMethod, MeshBody, Real, Vector};
+use hair_ssv::{MeshBody, Real, Vector};
 use rayon::prelude::*;
 
 /// Distance beyond a node's radius within which groomed hair counts as lying on the body (m):
@@ -47,11 +47,6 @@ pub struct BodySupport {
     /// Per push, its force this step if it acts.
     acting: Vec<Option<(u32, Vector)>>,
     forces: Vec<(u32, Vector)>,
-    /// Per push, how far its node stays beyond where its push has faded out, from its last
-    /// query (of the body and method of `clearance_key`): a node lifted off is not asked again
-    /// until it has moved that far.
-    clearances: Vec<Clearance>,
-    clearance_key: Option<(BodyIdentity, CollisionMethod)>,
 }
 
 impl BodySupport {
@@ -92,7 +87,6 @@ impl BodySupport {
             push.force = *f;
         }
         self.pushes.retain(|p| p.force > LEAST_PUSH);
-        self.clearances.clear();
     }
 
     /// Nodes the body pushes at rest.
@@ -113,31 +107,16 @@ impl BodySupport {
         body: &MeshBody,
         settings: &CollisionSettings,
     ) -> Result<usize, DynamicsError> {
-        let method = settings.method;
-        let key = Some((body.identity(), method));
-        if self.clearance_key != key || self.clearances.len() != self.pushes.len() {
-            self.clearances.clear();
-            self.clearances.resize(self.pushes.len(), Clearance::NONE);
-            self.clearance_key = key;
-        }
         let p = state.positions();
         let shared = &*state;
         self.pushes
             .par_iter()
-            .zip(self.clearances.par_iter_mut())
-            .map(|(push, clearance)| {
+            .map(|push| {
                 if !shared.is_active(SkeletonId(push.skeleton)) {
                     return None;
                 }
                 let gone = push.groomed_at + SUPPORT_LIFT;
-                let at = &p[push.node as usize];
-                // Where the body is still `gone` or farther, the push has faded out.
-                if clearance.keeps_out(at, gone) {
-                    return None;
-                }
-                let (hit, clear) = body.distance_within_clearance(method, at, gone);
-                *clearance = clear;
-                let (d, n) = hit?;
+                let (d, n) = body.distance_within(settings.method, &p[push.node as usize], gone)?;
                 let share = ((gone - d) / SUPPORT_LIFT).clamp(0.0, 1.0);
                 (share > 0.0).then(|| (push.node, n * (push.force * share)))
             })
