@@ -544,7 +544,8 @@ fn forces_for_the_next_step_act_for_one_step_only() {
 }
 
 /// Per-node forces for the next step act as the same forces queued by list, bit for bit, for
-/// one step only (the listed ones are cleared after it); a copy of the state carries them.
+/// one step only (the listed ones are cleared after it, the per-node ones zeroed); a copy of
+/// the state carries them.
 #[test]
 fn node_forces_for_the_next_step_act_as_listed_ones() {
     let (mut dense, id) = one_strand(
@@ -578,6 +579,13 @@ fn node_forces_for_the_next_step_act_as_listed_ones() {
         assert_eq!(dense.positions(), listed.positions(), "step {k}");
         assert_eq!(dense.omega_phi(), listed.omega_phi(), "step {k}");
     }
+    // The step that used them left none for the next response.
+    dense.add_node_forces_for_next_step(|_, forces| {
+        assert!(
+            forces.iter().all(|f| *f == Vector::zeros()),
+            "forces left over"
+        );
+    });
     let mut unpushed = carried.clone();
     unpushed.add_node_forces_for_next_step(|_, forces| forces.fill(Vector::zeros()));
     let mut pushed = carried;
