@@ -9,6 +9,7 @@
 
 use crate::{HairError, Simulation, StepStats};
 pub use hair_collide::BodyPart;
+use hair_collide::BodyReport;
 use hair_dynamics::HeadPose;
 use hair_ssv::{MeshBody, Point, Real};
 use nalgebra::Isometry3;
@@ -98,30 +99,25 @@ impl Simulation {
             let head = (&head_now, &head_next);
             part.advance(&track_from_world, head, limits, self.settings.dt);
         }
-        let bodies = usize::from(self.body.is_some()) + self.parts.len();
-        let rounds = if bodies > 1 { 2 } else { 1 };
+        let rounds = 1 + usize::from(usize::from(self.body.is_some()) + self.parts.len() > 1);
         let (front, step, collision) = (&self.front_nodes, self.steps, &self.scene.collision);
         for round in 0..rounds {
-            let mut deepest: Real = 0.0;
-            let mut contacts = 0;
+            let mut total = BodyReport::default();
             if let Some(body) = &self.body {
-                let report =
-                    self.body_constraint
-                        .apply(&mut self.state, body, front, step, collision)?;
-                contacts += report.contacts;
-                deepest = deepest.max(report.max_penetration);
+                let constraint = &mut self.body_constraint;
+                total.merge(&constraint.apply(&mut self.state, body, front, step, collision)?);
             }
             for part in &mut self.parts {
-                let Some(report) = part.constrain(&mut self.state, front, step, collision)? else {
-                    continue;
-                };
-                contacts += report.contacts;
-                deepest = deepest.max(report.max_penetration);
+                if let Some(report) = part.constrain(&mut self.state, front, step, collision)? {
+                    total.merge(&report);
+                }
             }
             if round == 0 {
-                stats.body_contacts = contacts;
+                stats.body_contacts = total.contacts;
             }
-            stats.max_penetration_m = f64::from(deepest);
+            stats.max_penetration_m = f64::from(total.max_penetration);
+            stats.body_exact_tests += total.exact_tests;
+            stats.body_escapes += total.escapes;
         }
         Ok(())
     }

@@ -66,6 +66,10 @@ pub struct StepStats {
     pub body_contacts: usize,
     /// Deepest node inside the body after the hard constraint (m).
     pub max_penetration_m: f64,
+    /// Node tests by the exact distance where the field or tables could not be trusted.
+    pub body_exact_tests: usize,
+    /// Nodes sent out of a thin part of the body to the nearest clear place on their sphere.
+    pub body_escapes: usize,
     /// Kinetic energy of the simulated nodes (J).
     pub kinetic_energy: f64,
     /// Skeletons whose structured implicit solve failed its residual check and was redone by the

@@ -129,6 +129,11 @@ pub struct Summary {
     pub tolerance_m: f64,
     /// Structured implicit solves redone by the dense LU, over every step.
     pub dense_fallbacks: usize,
+    /// The hard body constraint's node tests by the exact distance, over every step: its late
+    /// passes, where the scene's approximate method (field or tables) cannot be trusted.
+    pub body_exact_tests: usize,
+    /// Nodes the hard body constraint sent out of a thin part of the body, over every step.
+    pub body_escapes: usize,
     /// The largest mean distance (mm) of the simulated nodes from where they were at frame 0
     /// (as built), over the steps of the first second in the still part of the scene: the
     /// steps before the head, the wind or a tool first acts. `null` when something acts from
@@ -245,6 +250,7 @@ pub fn simulate(
         let (mut active, mut dormant, mut steps) = (0.0f64, 0.0f64, 0.0f64);
         let mut last = StepStats::default();
         let mut dense_fallbacks = 0;
+        let (mut body_exact_tests, mut body_escapes) = (0, 0);
         let (mut volume_cells, mut hair_contacts) = (0.0f64, 0.0f64);
         for frame in 0..frames {
             let mut ms_frame = 0.0;
@@ -264,6 +270,8 @@ pub fn simulate(
                 active += s.active as f64;
                 dormant += s.dormant as f64;
                 dense_fallbacks += s.dense_fallbacks;
+                body_exact_tests += s.body_exact_tests;
+                body_escapes += s.body_escapes;
                 volume_cells += s.volume_cells as f64;
                 hair_contacts += s.hair_contacts as f64;
                 if s.time <= still_s + 1e-6 {
@@ -327,6 +335,8 @@ pub fn simulate(
             max_penetration_m: max_pen,
             tolerance_m: f64::from(loaded.scene.collision.tolerance),
             dense_fallbacks,
+            body_exact_tests,
+            body_escapes,
             rest_drift_mm: rest_drift,
             rest_drift_s,
             state_hash: format!("{:016x}", sim.state_hash()),

@@ -18,6 +18,23 @@ pub struct BodyReport {
     /// Deepest node centre left inside the body (m), each node counted where it was last
     /// tested.
     pub max_penetration: Real,
+    /// Node tests the late passes made by the exact distance where the scene's method is
+    /// approximate (few nodes still moving, where the method's answer cannot be trusted).
+    pub exact_tests: usize,
+    /// Nodes caught inside after the regular passes and sent to the nearest clear place on
+    /// their sphere (each by up to a few hundred exact queries).
+    pub escapes: usize,
+}
+
+impl BodyReport {
+    /// Adds `other`'s counts to these and keeps the deeper penetration: the report of
+    /// several bodies.
+    pub fn merge(&mut self, other: &BodyReport) {
+        self.contacts += other.contacts;
+        self.max_penetration = self.max_penetration.max(other.max_penetration);
+        self.exact_tests += other.exact_tests;
+        self.escapes += other.escapes;
+    }
 }
 
 /// The hard body constraint with its scratch buffers: after the first call, a call allocates
@@ -460,6 +477,7 @@ impl BodyConstraint {
             settings.body_passes
         };
         let mut deepest: Real = 0.0;
+        let (mut exact_tests, mut escaped) = (0, 0);
         // The deepest node centre among the nodes the passes stopped testing (they no longer
         // move).
         let mut settled: Real = 0.0;
@@ -480,6 +498,9 @@ impl BodyConstraint {
             } else {
                 method
             };
+            if method != settings.method {
+                exact_tests += self.body_nodes.len();
+            }
             // As in the sweeps, a node its clearance keeps out of reach is not queried (the
             // ramp's passes test every node, most of them far from the body).
             let clearances = !self.clearance_off && method == settings.method;
@@ -585,6 +606,7 @@ impl BodyConstraint {
                 }
                 *first = (*first).min(bn.node);
             }
+            escaped += escapes;
             if pass == 0 {
                 contacts = self.constraints.len();
                 if in_ramp {
@@ -645,6 +667,8 @@ impl BodyConstraint {
         Ok(BodyReport {
             contacts,
             max_penetration: deepest.max(settled).max(swept_depth).max(0.0),
+            exact_tests,
+            escapes: escaped,
         })
     }
 }
@@ -1035,6 +1059,37 @@ mod tests {
         let expected = step_after_ramp();
         assert!(second_step(&clear) == expected, "the ramp went on");
         assert!(second_step(&through) != expected, "the ramp ended");
+    }
+
+    /// The late passes' exact tests are counted where the scene's method is approximate and
+    /// the late passes switch to the exact distance, and only there: strands through the
+    /// torus's tube, one sweep, then late passes over the 755 nodes still moving.
+    #[test]
+    fn exact_late_tests_are_counted() {
+        let centre = Point::new(0.0, -0.1, 0.0);
+        let body = torus(centre);
+        let through = roots_around(centre);
+        let front: Vec<u32> = (0..through.len() as u32).collect();
+        let report = |method, exact_late_nodes| {
+            let settings = CollisionSettings {
+                depenetration_steps: 0,
+                method,
+                exact_late_nodes,
+                body_passes: 1,
+                sweep_retests: 0,
+                ..CollisionSettings::default()
+            };
+            let mut state = strands(&through);
+            let mut constraint = BodyConstraint::new();
+            constraint
+                .apply(&mut state, &body, &front, 0, &settings)
+                .unwrap()
+        };
+        let switched = report(CollisionMethod::Field, 10_000);
+        assert!(switched.exact_tests >= 755, "{switched:?}");
+        // Too many nodes still moving for the switch, and a method that is exact already.
+        assert_eq!(report(CollisionMethod::Field, 100).exact_tests, 0);
+        assert_eq!(report(CollisionMethod::Bvh, 10_000).exact_tests, 0);
     }
 
     /// One constraint applied in turn to two bodies a little apart, to a clone of one whose
