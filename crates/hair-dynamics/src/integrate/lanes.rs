@@ -228,8 +228,10 @@ struct LaneScratch {
     out: Vec<NodeOut>,
     /// The group's per-node inputs in lane layout (`gather`, `gather3`).
     nodes: Vec<NodeIn>,
-    /// ROS3's joints (`ros3`).
+    /// ROS3's joints (`ros3`), and the start of the step while it is split: each node's
+    /// angles and rates.
     stages: Vec<ros3::StageJoint>,
+    start: Vec<[L; 4]>,
 }
 
 /// A node's inputs of the group's eight strands, lane by lane: gathered from the state's
@@ -279,6 +281,7 @@ impl LaneScratch {
             self.out.resize(n, NodeOut::default());
             self.nodes.resize(n, NodeIn::default());
             self.stages.resize(n, ros3::StageJoint::default());
+            self.start.resize(n, [L::ZERO; 4]);
         }
     }
 }
@@ -321,17 +324,21 @@ pub(super) enum LaneOutcome {
     /// back to the coupled step as its own BDF2 step does, or splits the ROS3 step as its guard
     /// does, and counts it.
     Redo,
+    /// ROS3 only: advanced in the pieces its guard asked for and written back; count it as a
+    /// split.
+    Split,
 }
 
 /// Advances the strands `members` (local indices into `run`, all attached, all of `n` nodes, at
 /// most [`LANES`]) by one step of the integrator (the coupled step, BDF2 or ROS3), writing back
-/// those that succeed.
+/// those that succeed. Each lane's outcome comes with the pieces a scalar ROS3 step that redoes
+/// it starts its guard at (1 for the other integrators).
 pub(super) fn step_group(
     run: &mut Run<'_>,
     sh: &Shared<'_>,
     members: &[usize],
     n: usize,
-) -> [LaneOutcome; LANES] {
+) -> [(LaneOutcome, u32); LANES] {
     LANE_SCRATCH.with(|cell| {
         let mut guard = cell.borrow_mut();
         // Grown already by `grow_every_worker`, so this allocates nothing; except for states
@@ -341,7 +348,7 @@ pub(super) fn step_group(
         if sh.settings.integrator == Integrator::ImplicitRos3 {
             ros3::step_group_in(run, sh, members, n, &mut guard)
         } else {
-            step_group_in(run, sh, members, n, &mut guard)
+            step_group_in(run, sh, members, n, &mut guard).map(|o| (o, 1))
         }
     })
 }
@@ -2069,16 +2076,61 @@ mod tests {
             );
         }
     }
-    /// One ROS3 step of `state` through `StrandState::step` (the lanes) and by the scalar ROS3
-    /// step, strand by strand: the largest differences of the angles (rad) and of the rates
-    /// (rad/s, over the largest rate, at least 1 rad/s), the strands the lanes left to the scalar
-    /// step's guard, and the scalar step's own splits.
-    fn ros3_gaps(
-        env: &Environment,
-        state: &StrandState,
-        h: Real,
-        model: TorqueModel,
-    ) -> (Real, Real, usize, usize) {
+    /// ROS3 where the guard trusts one strand's step in one piece and splits others of its group
+    /// (turning faster): the strand's bits do not depend on what its neighbours in the group
+    /// needed.
+    #[test]
+    fn a_strand_gets_the_same_ros3_bits_alone_and_in_a_group_whatever_the_others_split() {
+        let set = StepSettings {
+            integrator: Integrator::ImplicitRos3,
+            ..settings(1.0 / 200.0, TorqueModel::Chain, LinearSolver::Structured)
+        };
+        let faster = |mut state: StrandState| {
+            for s in 0..state.skeleton_count() {
+                for i in state.nodes(crate::SkeletonId(s as u32)) {
+                    state.omega_theta_mut()[i] *= (1 + 12 * s * s) as Real;
+                    state.omega_phi_mut()[i] *= (1 + 12 * s * s) as Real;
+                }
+            }
+            state
+        };
+        let mut many = faster(strands(8, 20, 5, 0.3, 0.1, 1e-4, 0.0));
+        let report = many
+            .step(&Environment::default(), &set)
+            .expect("a finite step");
+        let mut one = faster(strands(1, 20, 5, 0.3, 0.1, 1e-4, 0.0));
+        let alone = one
+            .step(&Environment::default(), &set)
+            .expect("a finite step");
+        assert!(
+            report.rosenbrock_splits > alone.rosenbrock_splits,
+            "the others split no more than the first: {report:?}, {alone:?}"
+        );
+        for i in 0..20 {
+            for (field, a, b) in [
+                ("theta", &many.theta, &one.theta),
+                ("phi", &many.phi, &one.phi),
+                ("omega_theta", &many.omega_theta, &one.omega_theta),
+                ("omega_phi", &many.omega_phi, &one.omega_phi),
+            ] {
+                assert_eq!(a[i].to_bits(), b[i].to_bits(), "{field} {i}");
+            }
+        }
+    }
+    /// One ROS3 step of `state` through `StrandState::step` (the lanes) against the scalar ROS3
+    /// step, strand by strand.
+    struct Ros3Gaps {
+        /// The largest differences of the angles (rad) and of the rates (rad/s, over the largest
+        /// rate, at least 1 rad/s).
+        angles: Real,
+        rates: Real,
+        /// The steps the guard split (lanes, scalar) and of those the steps taken as the coupled
+        /// step (lanes, scalar).
+        splits: (usize, usize),
+        fallbacks: (usize, usize),
+    }
+
+    fn ros3_gaps(env: &Environment, state: &StrandState, h: Real, model: TorqueModel) -> Ros3Gaps {
         let set = StepSettings {
             integrator: Integrator::ImplicitRos3,
             ..settings(h, model, LinearSolver::Structured)
@@ -2094,12 +2146,12 @@ mod tests {
             .copied()
             .collect();
         let fastest = scalar.rates.iter().fold(1.0, |m: Real, w| m.max(w.abs()));
-        (
-            worst(&angles, &scalar.angles),
-            worst(&rates, &scalar.rates) / fastest,
-            report.rosenbrock_splits,
-            sc.rosenbrock_splits,
-        )
+        Ros3Gaps {
+            angles: worst(&angles, &scalar.angles),
+            rates: worst(&rates, &scalar.rates) / fastest,
+            splits: (report.rosenbrock_splits, sc.rosenbrock_splits),
+            fallbacks: (report.rosenbrock_fallbacks, sc.rosenbrock_fallbacks),
+        }
     }
 
     proptest! {
@@ -2108,7 +2160,7 @@ mod tests {
         /// ROS3 in the lanes gives the scalar ROS3 step's angles to 1e-5 rad and rates to 1e-4
         /// of the largest, on random strands as in the coupled step's proptest (1 to 19 strands,
         /// 2 to 40 nodes, bent or near straight, soft to stiff, both load models, steps from 1 to
-        /// 20 ms), and leaves to the scalar step's guard exactly the strands that guard splits.
+        /// 20 ms), and its guard splits exactly the strands the scalar guard splits.
         #[test]
         fn ros3_in_lanes_agrees_with_the_scalar_ros3_step(
             count in 1usize..20, n in 2usize..40, seed in any::<u64>(),
@@ -2117,11 +2169,29 @@ mod tests {
             let bend = if straight { 1e-5 } else { 1.2 };
             let state = strands(count, n, seed, bend, 2.0, 10f32.powf(log_k), 0.0);
             let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
-            let (angles, rates, lane_splits, scalar_splits) =
-                ros3_gaps(&Environment::default(), &state, h, model);
-            prop_assert!(angles <= 1e-5, "angles differ by {angles:e} rad");
-            prop_assert!(rates <= 1e-4, "rates differ by {rates:e} of the largest");
-            prop_assert_eq!(lane_splits, scalar_splits);
+            let gaps = ros3_gaps(&Environment::default(), &state, h, model);
+            prop_assert!(gaps.angles <= 1e-5, "angles differ by {:e} rad", gaps.angles);
+            prop_assert!(gaps.rates <= 1e-4, "rates differ by {:e} of the largest", gaps.rates);
+            prop_assert_eq!(gaps.splits.0, gaps.splits.1);
+            prop_assert_eq!(gaps.fallbacks.0, gaps.fallbacks.1);
+        }
+
+        /// Where the guard splits: soft strands turning at up to 8 rad/s, steps of 1/100 to
+        /// 1/25 s, so that most steps go to two or four pieces and some past them to the coupled
+        /// step. The lanes' pieces give the scalar guarded step's angles to 1e-5 rad and rates to
+        /// 1e-4 of the largest, with the same splits and fallbacks.
+        #[test]
+        fn ros3_split_in_lanes_agrees_with_the_scalar_guarded_step(
+            count in 1usize..20, n in 2usize..30, seed in any::<u64>(),
+            log_k in -6.0f32..-2.0, h in 0.01f32..0.04, rate in 0.5f32..8.0,
+            chain in any::<bool>()) {
+            let state = strands(count, n, seed, 0.6, rate, 10f32.powf(log_k), 0.0);
+            let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
+            let gaps = ros3_gaps(&Environment::default(), &state, h, model);
+            prop_assert!(gaps.angles <= 1e-5, "angles differ by {:e} rad", gaps.angles);
+            prop_assert!(gaps.rates <= 1e-4, "rates differ by {:e} of the largest", gaps.rates);
+            prop_assert_eq!(gaps.splits.0, gaps.splits.1);
+            prop_assert_eq!(gaps.fallbacks.0, gaps.fallbacks.1);
         }
     }
 
@@ -2161,14 +2231,11 @@ mod tests {
                 }
             }
             for (env, what) in [(&Environment::default(), "still air"), (&env, "wind")] {
-                let (angles, rates, lane_splits, scalar_splits) = ros3_gaps(env, &state, h, model);
+                let gaps = ros3_gaps(env, &state, h, model);
+                let (angles, rates) = (gaps.angles, gaps.rates);
                 assert!(angles <= 1e-5, "seed {seed}, {what}: angles {angles:e} rad");
                 assert!(rates <= 1e-4, "seed {seed}, {what}: rates {rates:e}");
-                assert_eq!(
-                    (lane_splits, scalar_splits),
-                    (0, 0),
-                    "seed {seed}, {what}: splits"
-                );
+                assert_eq!(gaps.splits, (0, 0), "seed {seed}, {what}: splits");
             }
             let (coupled, _) = stepped(&state, h, model, LinearSolver::Structured);
             let mut ros3 = state.clone();
@@ -2188,14 +2255,25 @@ mod tests {
         }
     }
 
-    /// At the steps of a frame and shorter the guard splits some strands' steps and not others:
-    /// the lanes leave those to the scalar step, which splits them as it would have (the same
-    /// count, the same answers), and keep the others.
+    /// At the steps of a frame and shorter the guard splits some strands' steps and not others,
+    /// in two pieces or four: the lanes split those as the scalar guard would have (the same
+    /// count, the same answers), in the wind too, and keep the others' one-piece steps.
     #[test]
-    fn ros3_lanes_leave_the_steps_their_guard_distrusts_to_the_scalar_step() {
+    fn ros3_lanes_split_the_steps_their_guard_distrusts_as_the_scalar_step_does() {
+        use crate::Wind;
+        let wind = Environment {
+            wind: Wind {
+                direction: Vector::new(0.3, 0.1, -1.0),
+                speed: 3.0,
+                turbulence: 0.4,
+                drag: 2e-3,
+                ..Wind::default()
+            },
+            ..Environment::default()
+        };
         let mut split = 0;
-        for seed in 0..8u64 {
-            let h = 1.0 / (60 << (seed % 4)) as Real;
+        for seed in 0..12u64 {
+            let h = 1.0 / (30 << (seed % 4)) as Real;
             let mut state = strands(16, 20, seed, 0.3, 1.0, 1e-4, 0.0);
             // Strand by strand, faster and slower.
             for s in 0..state.skeleton_count() {
@@ -2204,16 +2282,23 @@ mod tests {
                     state.omega_phi_mut()[i] *= (s % 4) as Real;
                 }
             }
-            let (angles, rates, lane_splits, scalar_splits) =
-                ros3_gaps(&Environment::default(), &state, h, TorqueModel::Chain);
+            let env = if seed % 3 == 2 {
+                &wind
+            } else {
+                &Environment::default()
+            };
+            let gaps = ros3_gaps(env, &state, h, TorqueModel::Chain);
+            let (angles, rates) = (gaps.angles, gaps.rates);
             assert!(angles <= 1e-5, "seed {seed}: angles {angles:e} rad");
             assert!(rates <= 1e-4, "seed {seed}: rates {rates:e}");
-            assert_eq!(lane_splits, scalar_splits, "seed {seed}: splits");
-            split += lane_splits;
-            println!("seed {seed}, h {h}: {lane_splits} of 16 split");
+            assert_eq!(gaps.splits.0, gaps.splits.1, "seed {seed}: splits");
+            assert_eq!(gaps.fallbacks.0, gaps.fallbacks.1, "seed {seed}: fallbacks");
+            split += gaps.splits.0;
+            println!("seed {seed}, h {h}: {} of 16 split", gaps.splits.0);
         }
-        assert!(split > 0 && split < 128, "{split} of 128 strands split");
+        assert!(split > 0 && split < 192, "{split} of 192 strands split");
     }
+
     /// States stepped in parallel by the workers of one pool, as `hair stability` steps its
     /// cells: each state's first lane step grows the lane buffers, which must not wait for the
     /// pool's other workers from inside one (a waiting worker runs other states' first steps,

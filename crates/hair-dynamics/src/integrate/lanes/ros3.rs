@@ -26,9 +26,14 @@
 //! The arithmetic of each stage is the scalar step's, in the same order where the order changes
 //! the rounding of a sum of stages.
 //!
-//! A lane whose check fails, whose state goes non-finite or whose embedded error estimate is over
-//! the guard's tolerance is left untouched and redone by the scalar ROS3 step under its guard (the
-//! last from two pieces: one piece is what the lanes just measured).
+//! The guard (`rosenbrock::advance`) runs in the lanes too: where a lane's embedded estimate is
+//! over the tolerance, the group is stepped again from the start of the step in two pieces, then
+//! in four, and only the lanes that needed it take the result; the other lanes keep theirs (the
+//! same pieces and the same acceptance rule as the scalar guard, so the scalar guarded step's
+//! results to `f32` rounding). A lane whose check fails or whose state goes non-finite, and one
+//! that four pieces do not bring within the tolerance, is left untouched and redone by the scalar
+//! ROS3 step, its guard starting at the pieces the lanes had reached (from four, it falls back to
+//! the coupled step in four pieces).
 
 use super::{
     Check, GroupFields, GroupLanes, Joint, L, LANES, LaneOutcome, LaneScratch, Loads, M3, TipSums,
@@ -149,14 +154,32 @@ struct Piece<'a> {
     n: usize,
 }
 
-/// Advances the strands `members` (as [`super::step_group`]) by one ROS3 step.
+/// The lanes whose bit is set in `bits`, as a mask.
+#[inline(always)]
+fn mask_of(bits: u32) -> L {
+    let mut lanes = [0.0; LANES];
+    for (l, lane) in lanes.iter_mut().enumerate() {
+        if bits & (1 << l) != 0 {
+            *lane = 1.0;
+        }
+    }
+    L::from(lanes).simd_gt(L::ZERO)
+}
+
+/// Advances the strands `members` (as [`super::step_group`]) by one ROS3 step under its guard
+/// (`rosenbrock::advance`): the whole step, then, for the lanes whose estimate is over the
+/// tolerance, the step again in two pieces, then in four; the lanes already trusted keep their
+/// result. Each lane's outcome comes with the pieces the scalar guard starts from where the
+/// scalar step redoes it: a lane whose check fails or whose state goes non-finite in the pieces
+/// of a split, and one that four pieces do not bring within the tolerance (which the scalar
+/// guard then takes as the coupled step in four pieces).
 pub(super) fn step_group_in(
     run: &mut Run<'_>,
     sh: &Shared<'_>,
     members: &[usize],
     n: usize,
     ls: &mut LaneScratch,
-) -> [LaneOutcome; LANES] {
+) -> [(LaneOutcome, u32); LANES] {
     let settings: &StepSettings = &sh.settings;
     let at = GroupLanes::new(run, sh, members);
     let (local, in_run) = (&at.local, &at.in_run);
@@ -182,26 +205,14 @@ pub(super) fn step_group_in(
     );
     fields.gather_params(&mut ls.nodes[..n]);
     let checks = rest_of_piece(ls, &piece, settings.dt, true, none());
-
-    let mut outcome = [LaneOutcome::Done; LANES];
-    let (failed, bad, too_far) = (
-        checks.failed.to_bitmask(),
-        checks.bad.to_bitmask(),
-        checks.too_far.to_bitmask(),
-    );
-    for (l, o) in outcome.iter_mut().enumerate() {
-        *o = if failed & (1 << l) != 0 {
-            LaneOutcome::Declined
-        } else if bad & (1 << l) != 0 {
-            LaneOutcome::NonFinite
-        } else if too_far & (1 << l) != 0 {
-            LaneOutcome::Redo
-        } else {
-            LaneOutcome::Done
-        };
+    let mut outcome = [(LaneOutcome::Done, 1); LANES];
+    let open = decide(&mut outcome, (1 << LANES) - 1, &checks, 1);
+    if open != 0 {
+        split(ls, &piece, settings.dt, open, &mut outcome);
     }
-    let done: [bool; LANES] =
-        std::array::from_fn(|l| l < members.len() && outcome[l] == LaneOutcome::Done);
+    let done: [bool; LANES] = std::array::from_fn(|l| {
+        l < members.len() && matches!(outcome[l].0, LaneOutcome::Done | LaneOutcome::Split)
+    });
     for l in (0..LANES).filter(|&l| done[l]) {
         let base = in_run[l];
         run.positions[base] = run.roots[local[l]].position;
@@ -210,6 +221,101 @@ pub(super) fn step_group_in(
     }
     publish_nodes(run, &ls.out, &done, in_run, n);
     outcome
+}
+
+/// The outcomes of the lanes `open` after a step in `pieces` pieces whose checks are `checks`:
+/// returns the lanes the guard sends on to twice the pieces.
+#[inline(always)]
+fn decide(
+    outcome: &mut [(LaneOutcome, u32); LANES],
+    open: u32,
+    checks: &PieceChecks,
+    pieces: u32,
+) -> u32 {
+    let (failed, bad, too_far) = (
+        checks.failed.to_bitmask(),
+        checks.bad.to_bitmask(),
+        checks.too_far.to_bitmask(),
+    );
+    let mut next = 0;
+    for (l, o) in outcome.iter_mut().enumerate() {
+        let bit = 1 << l;
+        if open & bit == 0 {
+            continue;
+        }
+        *o = if failed & bit != 0 {
+            (LaneOutcome::Declined, pieces)
+        } else if bad & bit != 0 {
+            (LaneOutcome::NonFinite, pieces)
+        } else if too_far & bit != 0 {
+            if pieces < ROS3.guard.max_pieces {
+                next |= bit;
+            }
+            (LaneOutcome::Redo, pieces.max(2))
+        } else if pieces == 1 {
+            (LaneOutcome::Done, 1)
+        } else {
+            (LaneOutcome::Split, pieces)
+        };
+    }
+    next
+}
+
+/// The guard's splits of a step of `h_s` for the lanes `open`, whose one-piece step it did not
+/// trust: the group stepped again from the start of the step (in `ls.nodes`, pass 1 of the one
+/// piece done) in two pieces, then, for the lanes still over the tolerance, in four. The lanes
+/// not open keep their results in `ls.out`. Out of line: the one-piece step stays as short as
+/// it was without it.
+#[inline(never)]
+fn split(
+    ls: &mut LaneScratch,
+    piece: &Piece<'_>,
+    h_s: f32,
+    mut open: u32,
+    outcome: &mut [(LaneOutcome, u32); LANES],
+) {
+    let n = piece.n;
+    // The start of the step, which the pieces overwrite.
+    for (start, node) in ls.start[..n].iter_mut().zip(&ls.nodes[..n]) {
+        *start = [node.theta, node.phi, node.omega_theta, node.omega_phi];
+    }
+    let mut pieces = 2;
+    while open != 0 {
+        if pieces > 2 {
+            for (start, node) in ls.start[..n].iter().zip(&mut ls.nodes[..n]) {
+                [node.theta, node.phi, node.omega_theta, node.omega_phi] = *start;
+            }
+        }
+        // As the scalar guard divides the step.
+        let h_piece = h_s / pieces as f32;
+        let keep = !mask_of(open);
+        let mut checks = PieceChecks {
+            failed: none(),
+            bad: none(),
+            too_far: none(),
+        };
+        for p in 0..pieces {
+            first_pass(
+                &ls.nodes,
+                &mut ls.stages,
+                &mut ls.pos,
+                &mut ls.vel,
+                &mut ls.tangent,
+                piece.root,
+                piece.has_air,
+                n,
+            );
+            let now = rest_of_piece(ls, piece, h_piece, p + 1 == pieces, keep);
+            // The scalar guard stops a split at its first piece over the tolerance: what later
+            // pieces do in that lane does not count.
+            let live = !checks.too_far;
+            checks.failed |= now.failed & live;
+            checks.bad |= now.bad & live;
+            checks.too_far |= now.too_far & live;
+        }
+        open = decide(outcome, open, &checks, pieces);
+        pieces *= 2;
+    }
 }
 
 /// Passes 2 to 9 of a ROS3 step of `h_s` from the state in `ls.nodes`, whose pass 1 (kinematics
