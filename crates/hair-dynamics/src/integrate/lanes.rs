@@ -2154,6 +2154,29 @@ mod tests {
         }
     }
 
+    /// [`ros3_gaps`] in still air within the proptests' bounds: angles to 1e-5 rad, rates to 1e-4
+    /// of the largest, the same splits and fallbacks.
+    fn ros3_agrees(
+        state: &StrandState,
+        h: Real,
+        model: TorqueModel,
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        let gaps = ros3_gaps(&Environment::default(), state, h, model);
+        prop_assert!(
+            gaps.angles <= 1e-5,
+            "angles differ by {:e} rad",
+            gaps.angles
+        );
+        prop_assert!(
+            gaps.rates <= 1e-4,
+            "rates differ by {:e} of the largest",
+            gaps.rates
+        );
+        prop_assert_eq!(gaps.splits.0, gaps.splits.1);
+        prop_assert_eq!(gaps.fallbacks.0, gaps.fallbacks.1);
+        Ok(())
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(64)))]
 
@@ -2169,11 +2192,7 @@ mod tests {
             let bend = if straight { 1e-5 } else { 1.2 };
             let state = strands(count, n, seed, bend, 2.0, 10f32.powf(log_k), 0.0);
             let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
-            let gaps = ros3_gaps(&Environment::default(), &state, h, model);
-            prop_assert!(gaps.angles <= 1e-5, "angles differ by {:e} rad", gaps.angles);
-            prop_assert!(gaps.rates <= 1e-4, "rates differ by {:e} of the largest", gaps.rates);
-            prop_assert_eq!(gaps.splits.0, gaps.splits.1);
-            prop_assert_eq!(gaps.fallbacks.0, gaps.fallbacks.1);
+            ros3_agrees(&state, h, model)?;
         }
 
         /// Where the guard splits: soft strands turning at up to 8 rad/s, steps of 1/100 to
@@ -2187,11 +2206,7 @@ mod tests {
             chain in any::<bool>()) {
             let state = strands(count, n, seed, 0.6, rate, 10f32.powf(log_k), 0.0);
             let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
-            let gaps = ros3_gaps(&Environment::default(), &state, h, model);
-            prop_assert!(gaps.angles <= 1e-5, "angles differ by {:e} rad", gaps.angles);
-            prop_assert!(gaps.rates <= 1e-4, "rates differ by {:e} of the largest", gaps.rates);
-            prop_assert_eq!(gaps.splits.0, gaps.splits.1);
-            prop_assert_eq!(gaps.fallbacks.0, gaps.fallbacks.1);
+            ros3_agrees(&state, h, model)?;
         }
     }
 
