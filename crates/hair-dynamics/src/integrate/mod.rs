@@ -524,7 +524,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                         Some(first_bad.map_or((s, node), |b: (usize, usize)| b.min((s, node))));
                 }
             };
-        let mut lane_fallbacks = 0;
+        let (mut lane_fallbacks, mut lane_splits) = (0, 0);
         if lanes::covers(sh) {
             // Strands of equal node count (attached roots) eight at a time; the rest one by one.
             let dense = StepSettings {
@@ -539,27 +539,28 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                 |run: &mut Run<'_>,
                  group: &[usize],
                  n: usize,
-                 fallbacks: &mut usize,
+                 (fallbacks, splits): (&mut usize, &mut usize),
                  scalar: &mut dyn FnMut(&mut Run<'_>, usize, &StepSettings, u32)| {
                     let outcome = lanes::step_group(run, sh, group, n);
-                    for (&local, o) in group.iter().zip(outcome) {
+                    for (&local, (o, pieces)) in group.iter().zip(outcome) {
                         match o {
                             // The lanes left the strand's BDF2 history (or none).
                             lanes::LaneOutcome::Done => {}
+                            // ROS3 in the pieces its guard asked for.
+                            lanes::LaneOutcome::Split => *splits += 1,
                             // ROS3's scalar step redoes a declined stage by the dense solve
                             // itself, and counts it.
                             lanes::LaneOutcome::Declined if ros3 => {
-                                scalar(run, local, &sh.settings, 1)
+                                scalar(run, local, &sh.settings, pieces)
                             }
                             lanes::LaneOutcome::Declined => {
                                 *fallbacks += 1;
                                 scalar(run, local, &dense, 1);
                             }
-                            // The lanes took ROS3's step in one piece, which the guard did not
-                            // trust: the scalar step starts at two.
-                            lanes::LaneOutcome::Redo if ros3 => scalar(run, local, &sh.settings, 2),
+                            // ROS3's guard starts where the lanes stopped (and counts the split
+                            // from two pieces on).
                             lanes::LaneOutcome::NonFinite | lanes::LaneOutcome::Redo => {
-                                scalar(run, local, &sh.settings, 1)
+                                scalar(run, local, &sh.settings, pieces)
                             }
                         }
                     }
@@ -580,7 +581,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                         &mut run,
                         &group[..members],
                         group_n,
-                        &mut lane_fallbacks,
+                        (&mut lane_fallbacks, &mut lane_splits),
                         &mut scalar,
                     );
                     members = 0;
@@ -593,7 +594,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                         &mut run,
                         &group[..members],
                         group_n,
-                        &mut lane_fallbacks,
+                        (&mut lane_fallbacks, &mut lane_splits),
                         &mut scalar,
                     );
                     members = 0;
@@ -604,7 +605,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
                     &mut run,
                     &group[..members],
                     group_n,
-                    &mut lane_fallbacks,
+                    (&mut lane_fallbacks, &mut lane_splits),
                     &mut scalar,
                 );
             }
@@ -619,6 +620,7 @@ fn run_sequential(mut run: Run<'_>, sh: &Shared<'_>) -> RunOutcome {
             }
         }
         buffers.sc.dense_fallbacks += lane_fallbacks;
+        buffers.sc.rosenbrock_splits += lane_splits;
         RunOutcome {
             first_bad,
             dense_fallbacks: buffers.sc.dense_fallbacks - before.0,

@@ -26,113 +26,77 @@
 //! The arithmetic of each stage is the scalar step's, in the same order where the order changes
 //! the rounding of a sum of stages.
 //!
-//! A lane whose check fails, whose state goes non-finite or whose embedded error estimate is over
-//! the guard's tolerance is left untouched and redone by the scalar ROS3 step under its guard (the
-//! last from two pieces: one piece is what the lanes just measured).
+//! The guard (`rosenbrock::advance`) runs in the lanes too: where a lane's embedded estimate is
+//! over the tolerance, the group is stepped again from the start of the step in two pieces, then
+//! in four, and only the lanes that needed it take the result; the other lanes keep theirs (the
+//! same pieces and the same acceptance rule as the scalar guard, so the scalar guarded step's
+//! results to `f32` rounding). A lane whose check fails or whose state goes non-finite, and one
+//! that four pieces do not bring within the tolerance, is left untouched and redone by the scalar
+//! ROS3 step, its guard starting at the pieces the lanes had reached (from four, it falls back to
+//! the coupled step in four pieces).
 
 use super::{
-    L, LANES, LaneBend, LaneOutcome, LaneScratch, M3, Strands, V3, gather, gather3, member,
-    nan_unless_finite, not_finite, per_lane, prefetch_slice, publish_nodes, root_frames,
+    Check, GroupFields, GroupLanes, Joint, L, LANES, LaneOutcome, LaneScratch, Loads, M3, TipSums,
+    V3, eliminate, end_length, first_pass, link, nan_unless_finite, not_finite, prefetch_outputs,
+    publish_nodes, root_frames, unknowns,
 };
 use crate::Vector;
 use crate::integrate::rosenbrock::ROS3;
 use crate::integrate::{Shared, StepSettings, TorqueModel};
 use crate::run::Run;
 
-/// What the ROS3 lane step keeps of joint `j` between its passes.
+/// What the ROS3 lane step keeps of joint `j` between its passes, beyond what the coupled step
+/// keeps ([`Joint`]: there `b`, `offset`, `prefix` are the stage in hand's right-hand side, its
+/// offsets and the prefix sum `sum_{k<j} A_k r_k` of its angle half `r`, and `x`, `left` the last
+/// stage's unknowns and check terms).
 #[derive(Clone, Copy, Default)]
 pub(super) struct StageJoint {
-    /// Joint axes at the start of the step (the columns of the matrix's `A_j`) and at the
-    /// second stage's state (its torques').
-    a: [V3; 2],
+    joint: Joint,
+    /// Joint axes at the second stage's state (its torques').
     a_stage: [V3; 2],
-    /// The Jacobian's column generators `V_j` and row generators `W_j`.
-    v: [V3; 2],
-    wg: [V3; 2],
-    /// The elimination's factors, which every stage reuses: the 2 x 2 block's inverse, the rows
-    /// of `G_j = M A_j + V_j` and of the gain `E_j`.
+    /// The elimination's factors, which every stage reuses: the 2 x 2 block's inverse and the
+    /// rows of `G_j = M A_j + V_j` (the gain `E_j` is the joint's).
     inverse: [[L; 2]; 2],
     g: [V3; 2],
-    gain: [V3; 2],
-    /// Diagonal of the joint's two rows, and the diagonal inertia.
-    d: [L; 2],
+    /// The diagonal inertia.
     inertia: L,
-    /// The stage in hand: its right-hand side's rows `b`, the elimination's offsets `e_j`, the
-    /// prefix sum `sum_{k<j} A_k r_k` of its angle half `r` and that half. (Its velocity half,
-    /// the torque's shift `I r_w`, is worked out from the unknowns where it is needed.)
-    b: [L; 2],
-    offset: [L; 2],
-    prefix: V3,
+    /// The stage in hand's angle half `r`. (Its velocity half, the torque's shift `I r_w`, is
+    /// worked out from the unknowns where it is needed.)
     r: [L; 2],
-    /// The last stage's unknowns and its residual check's terms `h^2 W_j^T sum_{k<j} A_k x_k`.
-    x: [L; 2],
-    left: [L; 2],
     /// The first two stages' unknowns, angle and rate halves (`U_i`).
     uq: [[L; 2]; 2],
     uw: [[L; 2]; 2],
     /// The second stage's rates and torques (the third stage reuses them).
     w_stage: [L; 2],
     tau_stage: [L; 2],
-    /// The joint's angles, rates and segment length at the start of the step.
-    q: [L; 2],
-    w: [L; 2],
-    len: L,
+}
+
+impl std::ops::Deref for StageJoint {
+    type Target = Joint;
+    #[inline(always)]
+    fn deref(&self) -> &Joint {
+        &self.joint
+    }
+}
+
+impl super::HasJoint for StageJoint {
+    #[inline(always)]
+    fn joint_mut(&mut self) -> &mut Joint {
+        &mut self.joint
+    }
+}
+
+impl std::ops::DerefMut for StageJoint {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut Joint {
+        &mut self.joint
+    }
 }
 
 /// Zero in every lane, as a mask: no lane.
 #[inline(always)]
 fn none() -> L {
     L::ZERO.simd_ne(L::ZERO)
-}
-
-/// A stage's residual check, accumulated joint by joint from the tip: the largest residual of a
-/// row, the largest size of its terms, and a sum that is NaN where either is not finite (as the
-/// scalar solve checks it).
-#[derive(Clone, Copy)]
-struct Check {
-    suffix: V3,
-    worst: L,
-    scale: L,
-    nan_if_failed: L,
-}
-
-impl Check {
-    fn new() -> Self {
-        Self {
-            suffix: V3::default(),
-            worst: L::ZERO,
-            scale: L::ZERO,
-            nan_if_failed: L::ZERO,
-        }
-    }
-
-    /// Joint `joint`'s two rows, with the stage's unknowns and right-hand side kept in it.
-    #[inline(always)]
-    fn joint(&mut self, joint: &StageJoint, h2: L, chain: bool) {
-        let (x, b) = (joint.x, joint.b);
-        if !chain {
-            self.suffix = V3::default();
-        }
-        self.suffix = self.suffix + joint.v[0] * x[0] + joint.v[1] * x[1];
-        for t in 0..2 {
-            let left = joint.left[t];
-            let right = h2 * joint.a[t].dot(self.suffix);
-            let diag = joint.d[t] * x[t];
-            let residual = diag - left - right - b[t];
-            let size = diag.abs() + left.abs() + right.abs() + b[t].abs();
-            self.nan_if_failed += nan_unless_finite(residual) + nan_unless_finite(size);
-            self.worst = self.worst.max(residual.abs());
-            self.scale = self.scale.max(size);
-        }
-    }
-
-    /// The lanes whose check fails.
-    fn failed(&self) -> L {
-        not_finite(self.nan_if_failed)
-            | self
-                .worst
-                .simd_gt(L::splat(f32::EPSILON.sqrt()) * self.scale)
-    }
 }
 
 /// The elimination's offsets of a right-hand side `b` at joint `joint`, from the tip's affine
@@ -151,69 +115,231 @@ fn offsets(joint: &mut StageJoint, b: [L; 2], gain_r: &mut V3, h2: L) {
     joint.offset = offset;
 }
 
-/// A stage's unknowns at joint `joint` from the prefix sum `prefix` of `A x`, which they then
-/// move one joint down; keeps them and the check's terms.
+/// A later stage's right-hand side at joint `joint` (node `node`): the torque `tau(Y_1)` shifted
+/// by `I r_w`, and the Jacobian's and springs' terms on the angle half `r`, whose column sums
+/// `suffix_r` carries from the tip.
 #[inline(always)]
-fn unknowns(joint: &mut StageJoint, prefix: &mut V3, h2: L) -> [L; 2] {
-    let x = [
-        joint.gain[0].dot(*prefix) + joint.offset[0],
-        joint.gain[1].dot(*prefix) + joint.offset[1],
-    ];
-    joint.x = x;
-    joint.left = [h2 * joint.wg[0].dot(*prefix), h2 * joint.wg[1].dot(*prefix)];
-    *prefix = *prefix + joint.a[0] * x[0] + joint.a[1] * x[1];
-    x
-}
-
-/// What the loads on the nodes are made of (as `strand::forces` has them).
-struct Loads<'a> {
-    sh: &'a Shared<'a>,
-    gravity: V3,
-    drag: L,
-    has_fields: bool,
-    has_external: bool,
-}
-
-impl Loads<'_> {
-    /// The load on a node of mass `mi` at `xi` moving at `vi`, its segment along `tangent` of
-    /// length `len`, with the caller's load `external`. Not a closure: the step's closures were
-    /// left out of line.
-    #[inline(always)]
-    fn at(&self, mi: L, xi: V3, vi: V3, tangent: V3, len: L, external: V3) -> V3 {
-        let mut fi = self.gravity * mi;
-        if let Some(air) = &self.sh.lane_air {
-            let u = air.velocity(xi) - vi;
-            let across = u - tangent * u.dot(tangent);
-            fi = fi + across * (self.drag * len);
-        }
-        if self.has_fields {
-            let m: [f32; LANES] = mi.to_array();
-            fi = fi + per_lane(xi, |l, x| self.sh.env.field_force(&x, m[l]));
-        }
-        if self.has_external {
-            fi = fi + external;
-        }
-        fi
+fn stage_rhs(
+    joint: &StageJoint,
+    node: &super::NodeIn,
+    r_w: [L; 2],
+    suffix_r: V3,
+    hg: L,
+    hg2: L,
+) -> [L; 2] {
+    let r = joint.r;
+    let k = [node.k_theta, node.k_phi];
+    let mut b = [L::ZERO; 2];
+    for t in 0..2 {
+        let jw = joint.wg[t].dot(joint.prefix) + joint.a[t].dot(suffix_r);
+        b[t] = hg * (joint.tau_stage[t] + joint.inertia * r_w[t]) + hg2 * (jw - k[t] * r[t]);
     }
+    b
 }
 
-/// Advances the strands `members` (as [`super::step_group`]) by one ROS3 step.
+/// What a piece's lanes came to: the lanes whose residual checks failed, whose new state is not
+/// finite, and whose embedded estimate is over the guard's tolerance.
+struct PieceChecks {
+    failed: L,
+    bad: L,
+    too_far: L,
+}
+
+/// What every piece of a group's step reads and does not change.
+struct Piece<'a> {
+    loads: Loads<'a>,
+    root: (V3, M3),
+    chain: bool,
+    has_air: bool,
+    n: usize,
+}
+
+/// The lanes whose bit is set in `bits`, as a mask.
+#[inline(always)]
+fn mask_of(bits: u32) -> L {
+    let mut lanes = [0.0; LANES];
+    for (l, lane) in lanes.iter_mut().enumerate() {
+        if bits & (1 << l) != 0 {
+            *lane = 1.0;
+        }
+    }
+    L::from(lanes).simd_gt(L::ZERO)
+}
+
+/// Advances the strands `members` (as [`super::step_group`]) by one ROS3 step under its guard
+/// (`rosenbrock::advance`): the whole step, then, for the lanes whose estimate is over the
+/// tolerance, the step again in two pieces, then in four; the lanes already trusted keep their
+/// result. Each lane's outcome comes with the pieces the scalar guard starts from where the
+/// scalar step redoes it: a lane whose check fails or whose state goes non-finite in the pieces
+/// of a split, and one that four pieces do not bring within the tolerance (which the scalar
+/// guard then takes as the coupled step in four pieces).
 pub(super) fn step_group_in(
     run: &mut Run<'_>,
     sh: &Shared<'_>,
     members: &[usize],
     n: usize,
     ls: &mut LaneScratch,
-) -> [LaneOutcome; LANES] {
+) -> [(LaneOutcome, u32); LANES] {
     let settings: &StepSettings = &sh.settings;
-    let chain = settings.torque == TorqueModel::Chain;
-    let local: [usize; LANES] = std::array::from_fn(|l| member(members, l));
-    let global: [usize; LANES] =
-        std::array::from_fn(|l| sh.state_offsets[run.first + local[l]] as usize);
-    let in_run: [usize; LANES] = std::array::from_fn(|l| global[l] - run.node_base);
+    let at = GroupLanes::new(run, sh, members);
+    let (local, in_run) = (&at.local, &at.in_run);
+    let fields = GroupFields::new(run, sh, &at, n);
+    prefetch_outputs(run, in_run, members.len(), n);
+    let piece = Piece {
+        loads: Loads::new(sh),
+        root: root_frames(run, local),
+        chain: settings.torque == TorqueModel::Chain,
+        has_air: sh.lane_air.is_some(),
+        n,
+    };
+    fields.gather_state(&mut ls.nodes[..n]);
+    first_pass(
+        &ls.nodes,
+        &mut ls.stages,
+        &mut ls.pos,
+        &mut ls.vel,
+        &mut ls.tangent,
+        piece.root,
+        piece.has_air,
+        n,
+    );
+    fields.gather_params(&mut ls.nodes[..n]);
+    let checks = rest_of_piece(ls, &piece, settings.dt, true, none());
+    let mut outcome = [(LaneOutcome::Done, 1); LANES];
+    let open = decide(&mut outcome, (1 << LANES) - 1, &checks, 1);
+    if open != 0 {
+        split(ls, &piece, settings.dt, open, &mut outcome);
+    }
+    let done: [bool; LANES] = std::array::from_fn(|l| {
+        l < members.len() && matches!(outcome[l].0, LaneOutcome::Done | LaneOutcome::Split)
+    });
+    for l in (0..LANES).filter(|&l| done[l]) {
+        let base = in_run[l];
+        run.positions[base] = run.roots[local[l]].position;
+        run.velocities[base] = Vector::zeros();
+        run.roots[local[l]].history = 0;
+    }
+    publish_nodes(run, &ls.out, &done, in_run, n);
+    outcome
+}
+
+/// The outcomes of the lanes `open` after a step in `pieces` pieces whose checks are `checks`:
+/// returns the lanes the guard sends on to twice the pieces.
+#[inline(always)]
+fn decide(
+    outcome: &mut [(LaneOutcome, u32); LANES],
+    open: u32,
+    checks: &PieceChecks,
+    pieces: u32,
+) -> u32 {
+    let (failed, bad, too_far) = (
+        checks.failed.to_bitmask(),
+        checks.bad.to_bitmask(),
+        checks.too_far.to_bitmask(),
+    );
+    let mut next = 0;
+    for (l, o) in outcome.iter_mut().enumerate() {
+        let bit = 1 << l;
+        if open & bit == 0 {
+            continue;
+        }
+        *o = if failed & bit != 0 {
+            (LaneOutcome::Declined, pieces)
+        } else if bad & bit != 0 {
+            (LaneOutcome::NonFinite, pieces)
+        } else if too_far & bit != 0 {
+            if pieces < ROS3.guard.max_pieces {
+                next |= bit;
+            }
+            (LaneOutcome::Redo, pieces.max(2))
+        } else if pieces == 1 {
+            (LaneOutcome::Done, 1)
+        } else {
+            (LaneOutcome::Split, pieces)
+        };
+    }
+    next
+}
+
+/// The guard's splits of a step of `h_s` for the lanes `open`, whose one-piece step it did not
+/// trust: the group stepped again from the start of the step (in `ls.nodes`, pass 1 of the one
+/// piece done) in two pieces, then, for the lanes still over the tolerance, in four. The lanes
+/// not open keep their results in `ls.out`. Out of line: the one-piece step stays as short as
+/// it was without it.
+#[inline(never)]
+fn split(
+    ls: &mut LaneScratch,
+    piece: &Piece<'_>,
+    h_s: f32,
+    mut open: u32,
+    outcome: &mut [(LaneOutcome, u32); LANES],
+) {
+    let n = piece.n;
+    // The start of the step, which the pieces overwrite.
+    for (start, node) in ls.start[..n].iter_mut().zip(&ls.nodes[..n]) {
+        *start = [node.theta, node.phi, node.omega_theta, node.omega_phi];
+    }
+    let mut pieces = 2;
+    while open != 0 {
+        if pieces > 2 {
+            for (start, node) in ls.start[..n].iter().zip(&mut ls.nodes[..n]) {
+                [node.theta, node.phi, node.omega_theta, node.omega_phi] = *start;
+            }
+        }
+        // As the scalar guard divides the step.
+        let h_piece = h_s / pieces as f32;
+        let keep = !mask_of(open);
+        let mut checks = PieceChecks {
+            failed: none(),
+            bad: none(),
+            too_far: none(),
+        };
+        for p in 0..pieces {
+            first_pass(
+                &ls.nodes,
+                &mut ls.stages,
+                &mut ls.pos,
+                &mut ls.vel,
+                &mut ls.tangent,
+                piece.root,
+                piece.has_air,
+                n,
+            );
+            let now = rest_of_piece(ls, piece, h_piece, p + 1 == pieces, keep);
+            // The scalar guard stops a split at its first piece over the tolerance: what later
+            // pieces do in that lane does not count.
+            let live = !checks.too_far;
+            checks.failed |= now.failed & live;
+            checks.bad |= now.bad & live;
+            checks.too_far |= now.too_far & live;
+        }
+        open = decide(outcome, open, &checks, pieces);
+        pieces *= 2;
+    }
+}
+
+/// Passes 2 to 9 of a ROS3 step of `h_s` from the state in `ls.nodes`, whose pass 1 (kinematics
+/// and prefix sums, [`first_pass`]) is done. The last piece of a step (`last`) writes the new
+/// state and the end-of-step positions and velocities to `ls.out`, but not in the lanes of
+/// `keep`; another writes the new state to `ls.nodes`, where the next piece starts.
+#[inline(always)]
+fn rest_of_piece(
+    ls: &mut LaneScratch,
+    piece: &Piece<'_>,
+    h_s: f32,
+    last: bool,
+    keep: L,
+) -> PieceChecks {
+    let Piece {
+        loads,
+        root: (root_pos, root_rot),
+        chain,
+        has_air,
+        n,
+    } = piece;
+    let (chain, has_air, n) = (*chain, *has_air, *n);
     // The coefficients in `f32`, as the scalar step in `f32` rounds them.
     let real = |x: f64| x as f32;
-    let h_s = settings.dt;
     let hg_s = h_s * real(ROS3.gamma);
     let inv_h = 1.0 / h_s;
     let coef = |i: usize, j: usize| L::splat(real(ROS3.c[i][j]) * inv_h);
@@ -227,160 +353,29 @@ pub(super) fn step_group_in(
     let h = L::splat(h_s);
     let hg = L::splat(hg_s);
     let hg2 = hg * hg;
-
-    // Each field of the group, sliced to its strands and asked of memory (`Strands::new`), one
-    // by one: through an array's `map` the closures were left out of line.
-    let theta = Strands::new(&*run.theta, &in_run, n);
-    let phi = Strands::new(&*run.phi, &in_run, n);
-    let omega_theta = Strands::new(&*run.omega_theta, &in_run, n);
-    let omega_phi = Strands::new(&*run.omega_phi, &in_run, n);
-    let length = Strands::new(&*run.length, &in_run, n);
-    let mass = Strands::new(sh.mass, &global, n);
-    let wetness = Strands::new(sh.wetness, &global, n);
-    let damping = Strands::new(sh.damping, &global, n);
-    let k_theta = Strands::new(sh.k_theta, &global, n);
-    let k_phi = Strands::new(sh.k_phi, &global, n);
-    let rest_theta = Strands::new(sh.rest_theta, &global, n);
-    let rest_phi = Strands::new(sh.rest_phi, &global, n);
-    let k_stretch = Strands::new(sh.k_stretch, &global, n);
-    let rest_length = Strands::new(sh.rest_length, &global, n);
-    let rest_points = Strands::new(sh.rest_points, &global, n);
-    let has_external = !sh.force.is_empty();
-    let force = has_external.then(|| Strands::new(sh.force, &global, n));
-    for l in 0..members.len() {
-        prefetch_slice(&run.positions[in_run[l]..in_run[l] + n]);
-        prefetch_slice(&run.velocities[in_run[l]..in_run[l] + n]);
-    }
-    let (root_pos, root_rot) = root_frames(run, &local);
-    let gravity = {
-        let g = sh.env.gravity;
-        V3 {
-            x: L::splat(g.x),
-            y: L::splat(g.y),
-            z: L::splat(g.z),
-        }
-    };
-    let has_air = sh.lane_air.is_some();
-    let loads = Loads {
-        sh,
-        gravity,
-        drag: L::splat(sh.env.env.wind.drag),
-        has_fields: !sh.env.env.fields.is_empty(),
-        has_external,
-    };
-
-    let nodes = &mut ls.nodes[..n];
-    gather(nodes, &theta, |node, v| node.theta = v);
-    gather(nodes, &phi, |node, v| node.phi = v);
-    gather(nodes, &omega_theta, |node, v| node.omega_theta = v);
-    gather(nodes, &omega_phi, |node, v| node.omega_phi = v);
-    gather(nodes, &length, |node, v| node.length = v);
     let joints = &mut ls.stages[..n - 1];
-
-    // Pass 1, root to tip: kinematics at the start of the step and the prefix sums of A w.
-    let mut rot = root_rot;
-    let mut omega = V3::default();
-    ls.pos[0] = root_pos;
-    ls.vel[0] = V3::default();
-    for i in 1..n {
-        let node = &ls.nodes[i];
-        let (x, y) = (node.theta, node.phi);
-        let (wx, wy) = (node.omega_theta, node.omega_phi);
-        let bend = LaneBend::new(x, y);
-        let ax = rot.mul_v(bend.axis_x);
-        let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m(&bend.rotation);
-        let t = rot.column(2);
-        let len = node.length;
-        let seg = t * len;
-        let joint = &mut joints[i - 1];
-        (joint.q, joint.w, joint.len) = ([x, y], [wx, wy], len);
-        joint.a = [ax, ay];
-        joint.prefix = omega;
-        omega = omega + ax * wx + ay * wy;
-        ls.tangent[i] = t;
-        ls.pos[i] = ls.pos[i - 1] + seg;
-        if has_air {
-            ls.vel[i] = ls.vel[i - 1] + omega.cross(seg);
-        }
-    }
-
-    let nodes = &mut ls.nodes[..n];
-    gather(nodes, &mass, |node, v| node.mass = v);
-    gather(nodes, &wetness, |node, v| node.wetness = v);
-    gather(nodes, &damping, |node, v| node.damping = v);
-    gather(nodes, &k_theta, |node, v| node.k_theta = v);
-    gather(nodes, &k_phi, |node, v| node.k_phi = v);
-    gather(nodes, &rest_theta, |node, v| node.rest_theta = v);
-    gather(nodes, &rest_phi, |node, v| node.rest_phi = v);
-    gather(nodes, &k_stretch, |node, v| node.k_stretch = v);
-    gather(nodes, &rest_length, |node, v| node.rest_length = v);
-    gather3(nodes, &rest_points, |node, v| node.rest_point = v);
-    if let Some(force) = &force {
-        gather3(nodes, force, |node, v| node.force = v);
-    }
 
     // Pass 2, tip to root: torques and sums at the start of the step, generators, and the first
     // stage's right-hand side (`r = w`, no torque shift).
-    let floor = L::splat(1e-2);
-    let (mut s_f, mut t_vec, mut s_m, mut s_mp, mut s_mp2) = (
-        V3::default(),
-        V3::default(),
-        L::ZERO,
-        V3::default(),
-        L::ZERO,
-    );
-    let (mut s_pf, mut s_fp) = (M3::default(), L::ZERO);
+    let (nodes, pos, vel) = (&ls.nodes[..n], &ls.pos[..n], &ls.vel[..n]);
+    let (tangent, tension) = (&ls.tangent[..n], &mut ls.tension[..n]);
+    let mut sums = TipSums::new(nodes[n - 1].rest_point);
     let mut suffix_w = V3::default();
-    let mut rest_next = ls.nodes[n - 1].rest_point;
     for i in (1..n).rev() {
-        let j = i - 1;
-        let (q, w, len) = {
-            let joint = &joints[j];
-            (joint.q, joint.w, joint.len)
-        };
-        let pivot = ls.pos[i - 1];
-        let xi = ls.pos[i];
-        let node = &ls.nodes[i];
+        let joint = &mut joints[i - 1];
+        let (q, w, len) = (joint.q, joint.w, joint.len);
+        let pivot = pos[i - 1];
+        let xi = pos[i];
+        let node = &nodes[i];
         let mi = node.mass + node.wetness;
-        let fi = loads.at(mi, xi, ls.vel[i], ls.tangent[i], len, node.force);
-        let seg = xi - pivot;
-        let rp = rest_next;
-        let rc = ls.nodes[i - 1].rest_point;
-        rest_next = rc;
-        s_m += mi;
-        s_mp = s_mp + rp * mi;
-        s_mp2 += rp.norm_squared() * mi;
-        let (inertia, torque, load_sum, p, s, sigma);
-        if chain {
-            inertia = s_mp2 - L::splat(2.0) * rc.dot(s_mp) + rc.norm_squared() * s_m;
-            s_f = s_f + fi;
-            t_vec = t_vec + seg.cross(s_f);
-            torque = t_vec;
-            load_sum = s_f;
-            s_pf.add_outer(xi, fi);
-            s_fp += fi.dot(xi);
-            (p, s, sigma) = (s_pf, s_f, s_fp);
-        } else {
-            inertia = (rp - rc).norm_squared() * mi;
-            torque = seg.cross(fi);
-            load_sum = fi;
-            let mut own = M3::default();
-            own.add_outer(xi, fi);
-            (p, s, sigma) = (own, fi, fi.dot(xi));
-        }
-        let inertia = inertia.max(floor * mi * len * len);
-        ls.tension[i] = load_sum.dot(ls.tangent[i]);
+        let fi = loads.at(mi, xi, vel[i], tangent[i], len, node.force);
+        let rc = nodes[i - 1].rest_point;
+        let terms = sums.joint(chain, fi, xi, pivot, rc, mi, len, joint.a);
+        tension[i] = terms.load.dot(tangent[i]);
+        let (a, v, wg, inertia, torque) = (joint.a, terms.v, terms.wg, terms.inertia, terms.torque);
         let damping = node.damping;
         let k = [node.k_theta, node.k_phi];
         let rest = [node.rest_theta, node.rest_phi];
-        let joint = &mut joints[j];
-        let a = joint.a;
-        let sc_dot = sigma - s.dot(pivot);
-        let column = |at: V3| p.mul_v(at) - pivot * s.dot(at) - at * sc_dot;
-        let row = |at: V3| p.tr_mul_v(at) - s * at.dot(pivot) - at * sc_dot + at.cross(torque);
-        let v = [column(a[0]), column(a[1])];
-        let wg = [row(a[0]), row(a[1])];
         if !chain {
             suffix_w = V3::default();
         }
@@ -408,39 +403,11 @@ pub(super) fn step_group_in(
             gain_m = M3::default();
             gain_r = V3::default();
         }
-        let (a, v, wg, d, b) = (joint.a, joint.v, joint.wg, joint.d, joint.b);
-        let g = [gain_m.mul_v(a[0]) + v[0], gain_m.mul_v(a[1]) + v[1]];
-        let b00 = d[0] - hg2 * a[0].dot(g[0]);
-        let b01 = -hg2 * a[0].dot(g[1]);
-        let b10 = -hg2 * a[1].dot(g[0]);
-        let b11 = d[1] - hg2 * a[1].dot(g[1]);
-        let det = b00 * b11 - b01 * b10;
-        failed |= det.simd_eq(L::ZERO) | not_finite(nan_unless_finite(det));
-        let inv_det = L::ONE / det;
-        let inv = [
-            [b11 * inv_det, -b01 * inv_det],
-            [-b10 * inv_det, b00 * inv_det],
-        ];
-        let coupling = [
-            (wg[0] + gain_m.tr_mul_v(a[0])) * hg2,
-            (wg[1] + gain_m.tr_mul_v(a[1])) * hg2,
-        ];
-        let rr = [b[0] + hg2 * a[0].dot(gain_r), b[1] + hg2 * a[1].dot(gain_r)];
-        let gain = [
-            coupling[0] * inv[0][0] + coupling[1] * inv[0][1],
-            coupling[0] * inv[1][0] + coupling[1] * inv[1][1],
-        ];
-        let offset = [
-            inv[0][0] * rr[0] + inv[0][1] * rr[1],
-            inv[1][0] * rr[0] + inv[1][1] * rr[1],
-        ];
-        gain_m.add_outer(g[0], gain[0]);
-        gain_m.add_outer(g[1], gain[1]);
-        gain_r = gain_r + g[0] * offset[0] + g[1] * offset[1];
-        joint.gain = gain;
-        joint.offset = offset;
-        joint.inverse = inv;
-        joint.g = g;
+        let step = eliminate(joint, &mut gain_m, &mut gain_r, hg2, &mut failed);
+        joint.gain = step.gain;
+        joint.offset = step.offset;
+        joint.inverse = step.inverse;
+        joint.g = step.g;
     }
 
     // Pass 4, root to tip: the first stage's unknowns `U_0` (`r = w`) and the second stage's
@@ -460,17 +427,14 @@ pub(super) fn step_group_in(
         (joint.uq[0], joint.uw[0]) = (uq, x);
         (joint.w_stage, joint.r) = (w_stage, r);
     }
-    let mut rot = root_rot;
+    let mut rot = *root_rot;
     let mut omega = V3::default();
-    let mut pos = root_pos;
+    let mut pos = *root_pos;
     let mut vel = V3::default();
     for i in 1..n {
         let joint = &mut joints[i - 1];
         let q_stage = [joint.q[0] + joint.uq[0][0], joint.q[1] + joint.uq[0][1]];
-        let bend = LaneBend::new(q_stage[0], q_stage[1]);
-        let ax = rot.mul_v(bend.axis_x);
-        let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m(&bend.rotation);
+        let [ax, ay] = link(&mut rot, q_stage[0], q_stage[1]);
         let t = rot.column(2);
         let seg = t * joint.len;
         joint.a_stage = [ax, ay];
@@ -517,7 +481,6 @@ pub(super) fn step_group_in(
     failed |= check.failed();
     let (mut suffix_r, mut gain_r) = (V3::default(), V3::default());
     for i in (1..n).rev() {
-        let node = &ls.nodes[i];
         let joint = &mut joints[i - 1];
         if !chain {
             suffix_r = V3::default();
@@ -525,13 +488,8 @@ pub(super) fn step_group_in(
         }
         let r = joint.r;
         suffix_r = suffix_r + joint.v[0] * r[0] + joint.v[1] * r[1];
-        let k = [node.k_theta, node.k_phi];
-        let mut b = [L::ZERO; 2];
-        for t in 0..2 {
-            let r_w = c10 * joint.uw[0][t];
-            let jw = joint.wg[t].dot(joint.prefix) + joint.a[t].dot(suffix_r);
-            b[t] = hg * (joint.tau_stage[t] + joint.inertia * r_w) + hg2 * (jw - k[t] * r[t]);
-        }
+        let r_w = [c10 * joint.uw[0][0], c10 * joint.uw[0][1]];
+        let b = stage_rhs(joint, &ls.nodes[i], r_w, suffix_r, hg, hg2);
         offsets(joint, b, &mut gain_r, hg2);
     }
 
@@ -559,7 +517,6 @@ pub(super) fn step_group_in(
     let mut check = Check::new();
     let (mut suffix_r, mut gain_r) = (V3::default(), V3::default());
     for i in (1..n).rev() {
-        let node = &ls.nodes[i];
         let joint = &mut joints[i - 1];
         check.joint(joint, hg2, chain);
         if !chain {
@@ -568,20 +525,16 @@ pub(super) fn step_group_in(
         }
         let r = joint.r;
         suffix_r = suffix_r + joint.v[0] * r[0] + joint.v[1] * r[1];
-        let k = [node.k_theta, node.k_phi];
-        let mut b = [L::ZERO; 2];
-        for t in 0..2 {
-            let r_w = c20 * joint.uw[0][t] + c21 * joint.uw[1][t];
-            let jw = joint.wg[t].dot(joint.prefix) + joint.a[t].dot(suffix_r);
-            b[t] = hg * (joint.tau_stage[t] + joint.inertia * r_w) + hg2 * (jw - k[t] * r[t]);
-        }
+        let (uw0, uw1) = (joint.uw[0], joint.uw[1]);
+        let r_w = [c20 * uw0[0] + c21 * uw1[0], c20 * uw0[1] + c21 * uw1[1]];
+        let b = stage_rhs(joint, &ls.nodes[i], r_w, suffix_r, hg, hg2);
         offsets(joint, b, &mut gain_r, hg2);
     }
     failed |= check.failed();
 
     // Pass 8, root to tip: the third stage's unknowns `U_2`, the new state
     // `y_n + sum m_i U_i` and the embedded estimate `sum e_i U_i` (angles, and rates times the
-    // step); then, in a second loop, the end-of-step positions and velocities.
+    // step); then, in a second loop, the end-of-step positions and velocities (the last piece).
     let mut prefix_x = V3::default();
     let mut nan_if_bad = L::ZERO;
     let mut too_far = none();
@@ -603,61 +556,46 @@ pub(super) fn step_group_in(
             // Written so that a NaN fails too.
             too_far |= !error.abs().simd_le(tolerance);
         }
-        let k_stretch = ls.nodes[i].k_stretch;
-        let stretched = ls.nodes[i].rest_length * (L::ONE + ls.tension[i].max(L::ZERO) / k_stretch);
-        let len = k_stretch.simd_gt(L::ZERO).select(stretched, joint.len);
         nan_if_bad += (nan_unless_finite(q[0]) + nan_unless_finite(q[1]))
-            + (nan_unless_finite(w[0]) + nan_unless_finite(w[1]))
-            + nan_unless_finite(len);
-        let out = &mut ls.out[i];
-        (out.q, out.w, out.len) = (q, w, len);
+            + (nan_unless_finite(w[0]) + nan_unless_finite(w[1]));
+        if last {
+            let len = end_length(&ls.nodes[i], ls.tension[i], joint.len);
+            nan_if_bad += nan_unless_finite(len);
+            let out = &mut ls.out[i];
+            out.q = [keep.select(out.q[0], q[0]), keep.select(out.q[1], q[1])];
+            out.w = [keep.select(out.w[0], w[0]), keep.select(out.w[1], w[1])];
+            out.len = keep.select(out.len, len);
+        } else {
+            let node = &mut ls.nodes[i];
+            (node.theta, node.phi) = (q[0], q[1]);
+            (node.omega_theta, node.omega_phi) = (w[0], w[1]);
+        }
     }
-    let mut rot = root_rot;
-    let mut omega = V3::default();
-    let mut pos = root_pos;
-    let mut vel = V3::default();
-    for out in &mut ls.out[1..n] {
-        let (q, w) = (out.q, out.w);
-        let bend = LaneBend::new(q[0], q[1]);
-        let ax = rot.mul_v(bend.axis_x);
-        let ay = rot.mul_v(bend.axis_y);
-        rot = rot.mul_m(&bend.rotation);
-        let seg = rot.column(2) * out.len;
-        omega = omega + ax * w[0] + ay * w[1];
-        pos = pos + seg;
-        vel = vel + omega.cross(seg);
-        (out.pos, out.vel) = (pos, vel);
+    if last {
+        let mut rot = *root_rot;
+        let mut omega = V3::default();
+        let mut pos = *root_pos;
+        let mut vel = V3::default();
+        for out in &mut ls.out[1..n] {
+            let (q, w) = (out.q, out.w);
+            let [ax, ay] = link(&mut rot, q[0], q[1]);
+            let seg = rot.column(2) * out.len;
+            omega = omega + ax * w[0] + ay * w[1];
+            pos = pos + seg;
+            vel = vel + omega.cross(seg);
+            (out.pos, out.vel) = (pos, vel);
+        }
     }
-    let bad = not_finite(nan_if_bad);
 
-    // The third stage's check.
+    // Pass 9: the third stage's check.
     let mut check = Check::new();
     for joint in joints.iter().rev() {
         check.joint(joint, hg2, chain);
     }
     failed |= check.failed();
-
-    let mut outcome = [LaneOutcome::Done; LANES];
-    let (failed, bad, too_far) = (failed.to_bitmask(), bad.to_bitmask(), too_far.to_bitmask());
-    for (l, o) in outcome.iter_mut().enumerate() {
-        *o = if failed & (1 << l) != 0 {
-            LaneOutcome::Declined
-        } else if bad & (1 << l) != 0 {
-            LaneOutcome::NonFinite
-        } else if too_far & (1 << l) != 0 {
-            LaneOutcome::Redo
-        } else {
-            LaneOutcome::Done
-        };
+    PieceChecks {
+        failed,
+        bad: not_finite(nan_if_bad),
+        too_far,
     }
-    let done: [bool; LANES] =
-        std::array::from_fn(|l| l < members.len() && outcome[l] == LaneOutcome::Done);
-    for l in (0..LANES).filter(|&l| done[l]) {
-        let base = in_run[l];
-        run.positions[base] = run.roots[local[l]].position;
-        run.velocities[base] = Vector::zeros();
-        run.roots[local[l]].history = 0;
-    }
-    publish_nodes(run, &ls.out, &done, &in_run, n);
-    outcome
 }
