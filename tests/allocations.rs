@@ -72,8 +72,12 @@ static GLOBAL: Counting = Counting;
 
 /// Runs `name` at `policy` for `steps` steps on a pool of two threads (the step is called from
 /// inside the pool, as `hair run` does: called from outside, rayon takes a block for its queue
-/// of outside jobs now and then), resets it and runs the same steps again; returns the
-/// allocations of each replayed step.
+/// of outside jobs now and then), then resets it and replays the same steps three times;
+/// returns each step's fewest allocations over the replays.
+///
+/// A worker grows its own lane buffers at the first group it takes. On a loaded machine the
+/// other worker can take every group of the first run, and then that growth falls in the
+/// first replay; an allocation made every step shows in every replay.
 fn replayed_allocations(name: &str, policy: LodPolicy, steps: usize) -> Vec<usize> {
     let scene = Scene::load(name).expect("built-in scene");
     let pool = rayon::ThreadPoolBuilder::new()
@@ -87,19 +91,21 @@ fn replayed_allocations(name: &str, policy: LodPolicy, steps: usize) -> Vec<usiz
             sim.step().expect("step");
             hashes.push(sim.state_hash());
         }
-        sim.reset();
         let trace = std::env::var_os("HAIR_TRACE_ALLOCATIONS").is_some();
-        let mut counts = Vec::with_capacity(steps);
-        for first in &hashes {
-            let before = ALLOCATIONS.load(Relaxed);
-            TRACING.store(trace, Relaxed);
-            sim.step().expect("step");
-            TRACING.store(false, Relaxed);
-            counts.push(ALLOCATIONS.load(Relaxed) - before);
-            // The replay must be the same run, or its sizes prove nothing.
-            assert_eq!(sim.state_hash(), *first, "{name}: the replay differs");
+        let mut fewest = vec![usize::MAX; steps];
+        for _ in 0..3 {
+            sim.reset();
+            for (first, least) in hashes.iter().zip(&mut fewest) {
+                let before = ALLOCATIONS.load(Relaxed);
+                TRACING.store(trace, Relaxed);
+                sim.step().expect("step");
+                TRACING.store(false, Relaxed);
+                *least = (*least).min(ALLOCATIONS.load(Relaxed) - before);
+                // The replay must be the same run, or its sizes prove nothing.
+                assert_eq!(sim.state_hash(), *first, "{name}: the replay differs");
+            }
         }
-        counts
+        fewest
     })
 }
 
@@ -128,7 +134,7 @@ fn replayed_steps_allocate_nothing() {
     }
     assert!(
         failures.is_empty(),
-        "allocations in each replayed step:\n{}",
+        "fewest allocations of each step over three replays:\n{}",
         failures.join("\n")
     );
 }
