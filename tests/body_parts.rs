@@ -377,18 +377,6 @@ fn a_part_sliding_sideways_carries_the_hair_resting_on_it() {
     let left = slide_under_hair(-0.2, 0.8, 0.0);
     let slippery = slide_under_hair(0.2, 0.0, 0.0);
     let raised = slide_under_hair(0.2, 0.8, 1e-6);
-    eprintln!(
-        "DBG right {} {} {} {} left {} held {} {} {} slippery {}",
-        right.carried,
-        right.farthest,
-        right.fewest_contacts,
-        right.peak,
-        left.carried,
-        held.farthest,
-        held.fewest_contacts,
-        held.peak,
-        slippery.carried
-    );
     assert!(
         held.farthest.abs() < 1e-4,
         "the held box moved a node {} m",
