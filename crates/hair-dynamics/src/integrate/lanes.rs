@@ -1753,6 +1753,26 @@ mod tests {
         )
     }
 
+    /// The proptests' strands: `count` of `n` nodes, bent up to 1.2 rad a joint or near
+    /// straight (1e-5 rad), joints of stiffness `10^log_k`, and the load model.
+    fn random_group(
+        count: usize,
+        n: usize,
+        seed: u64,
+        straight: bool,
+        log_k: f32,
+        chain: bool,
+    ) -> (StrandState, TorqueModel) {
+        let bend = if straight { 1e-5 } else { 1.2 };
+        let state = strands(count, n, seed, bend, 2.0, 10f32.powf(log_k), 0.0);
+        let model = if chain {
+            TorqueModel::Chain
+        } else {
+            TorqueModel::Local
+        };
+        (state, model)
+    }
+
     fn worst(a: &[Real], b: &[Real]) -> Real {
         a.iter()
             .zip(b)
@@ -1772,9 +1792,7 @@ mod tests {
             count in 1usize..20, n in 2usize..40, seed in any::<u64>(),
             straight in any::<bool>(), log_k in -6.0f32..0.0, h in 1e-3f32..0.02,
             chain in any::<bool>()) {
-            let bend = if straight { 1e-5 } else { 1.2 };
-            let state = strands(count, n, seed, bend, 2.0, 10f32.powf(log_k), 0.0);
-            let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
+            let (state, model) = random_group(count, n, seed, straight, log_k, chain);
             let (lanes, lane_fallbacks) = stepped(&state, h, model, LinearSolver::Structured);
             let (faer, _) = stepped(&state, h, model, LinearSolver::Faer);
             let (scalar, scalar_fallbacks) = scalar_structured(&state, h, model);
@@ -2189,9 +2207,7 @@ mod tests {
             count in 1usize..20, n in 2usize..40, seed in any::<u64>(),
             straight in any::<bool>(), log_k in -6.0f32..0.0, h in 1e-3f32..0.02,
             chain in any::<bool>()) {
-            let bend = if straight { 1e-5 } else { 1.2 };
-            let state = strands(count, n, seed, bend, 2.0, 10f32.powf(log_k), 0.0);
-            let model = if chain { TorqueModel::Chain } else { TorqueModel::Local };
+            let (state, model) = random_group(count, n, seed, straight, log_k, chain);
             ros3_agrees(&state, h, model)?;
         }
 
